@@ -1,0 +1,25 @@
+"""Geometry config loading: clear errors for missing files and keys."""
+
+import pytest
+import yaml
+
+from pg_policy import geometry
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(FileNotFoundError, match="not found"):
+        geometry.load(tmp_path / "nope.yaml")
+
+
+def test_missing_key_is_named(tmp_path):
+    raw = yaml.safe_load(geometry.DEFAULT_CONFIG.read_text())
+    del raw["primitives"]["push_length"]
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump(raw))
+    with pytest.raises(ValueError, match="primitives.push_length"):
+        geometry.load(bad)
+
+
+def test_workspace_contains():
+    ws = geometry.load().workspace
+    assert ws.contains([0, 0, 0.1]) and not ws.contains([0.3, 0, 0.1]) and not ws.contains([0, 0, -0.01])

@@ -1,0 +1,94 @@
+"""Grasp and push performed by the simulated arms: success rates, displacement, refusals (DESIGN.md section 4)."""
+
+import numpy as np
+import pytest
+
+from pg_policy import heightmap as hm
+from pg_policy.action_geometry import grasp_z, push_z
+from pg_sim.colors import resolve_color
+from pg_sim.primitives import PrimitiveExecutor, PrimitiveRefused
+from pg_sim.scene import ObjectSpec, SceneSpec
+from pg_sim.world import World
+
+STEP = 2 * np.pi / 16
+
+
+@pytest.fixture(scope="module")
+def world():
+    w = World()
+    yield w
+    w.close()
+
+
+def _one_cube(world, x, y, yaw):
+    cube = ObjectSpec(shape="cube", size=None, color=resolve_color("green"), pose=(x, y, 0.0226, 0, 0, yaw),
+                      mesh=None, target=True, name="cube")
+    world.load_scene(SceneSpec(name="one-cube", target="green", objects=(cube,), family="test"))
+    return next(iter(world.objects))
+
+
+def _heights(world, x, y):
+    obs = world.observe()
+    r, c = hm.world_to_pixel(x, y, obs.heightmap.bounds, obs.heightmap.resolution)
+    return obs.heightmap.height, r, c
+
+
+def test_isolated_cube_grasped_19_of_20(world):
+    rng = np.random.default_rng(7)
+    ex = PrimitiveExecutor(world)
+    ws = world.geometry.workspace
+    ok = []
+    for _ in range(20):
+        x, y = rng.uniform(ws.x[0] + 0.04, ws.x[1] - 0.04), rng.uniform(ws.y[0] + 0.04, ws.y[1] - 0.04)
+        cube_yaw = rng.uniform(-np.pi, np.pi)
+        body = _one_cube(world, x, y, cube_yaw)
+        height, r, c = _heights(world, x, y)
+        yaw = round((cube_yaw % (np.pi / 2)) / STEP) * STEP  # nearest of the 16 rotations
+        res = ex.grasp(x, y, grasp_z(height, r, c, world.geometry.primitives), yaw)
+        ok.append(res.grasped and res.grasped_object == body and res.target_grasped)
+    assert sum(ok) >= 19, ok
+
+
+def test_push_moves_cube_along_yaw(world):
+    ex = PrimitiveExecutor(world)
+    rng = np.random.default_rng(11)
+    for _ in range(3):
+        yaw = int(rng.integers(16)) * STEP
+        d = np.array([np.cos(yaw), np.sin(yaw)])
+        centre = -0.06 * d  # leave room for 0.13 m of travel inside the workspace
+        body = _one_cube(world, centre[0], centre[1], yaw)
+        start = centre - 0.035 * d
+        height, r, c = _heights(world, *start)
+        res = ex.push(start[0], start[1], push_z(height, r, c, world.geometry.primitives), yaw)
+        assert res.executed, res.message
+        moved = world.object_poses()[body][:2] - centre
+        along = float(moved @ d)
+        assert 0.10 <= along <= 0.14, (yaw, moved)
+        assert abs(float(moved @ [-d[1], d[0]])) < 0.03
+
+
+def test_grasp_at_empty_spot_fails(world):
+    _one_cube(world, 0.15, 0.15, 0.0)
+    res = PrimitiveExecutor(world).grasp(-0.1, -0.1, 0.02, 0.0)
+    assert res.executed and not res.grasped and res.grasped_object is None
+
+
+@pytest.mark.parametrize("xyz", [(0.3, 0.0, 0.02), (0.0, -0.25, 0.02), (0.0, 0.0, -0.01), (0.0, 0.0, 0.35)])
+def test_outside_workspace_is_refused_and_nothing_moves(world, xyz):
+    _one_cube(world, 0.0, 0.0, 0.3)
+    before_q = {a: d.joints() for a, d in world.arms.items()}
+    before_obj = world.object_poses()
+    t0 = world.sim_time
+    for prim in (PrimitiveExecutor(world).grasp, PrimitiveExecutor(world).push):
+        with pytest.raises(PrimitiveRefused, match="outside the workspace"):
+            prim(*xyz, 0.0)
+    assert world.sim_time == t0
+    for a, d in world.arms.items():
+        np.testing.assert_array_equal(d.joints(), before_q[a])
+    for b, pose in world.object_poses().items():
+        np.testing.assert_array_equal(pose, before_obj[b])
+
+
+def test_unknown_arm_refused(world):
+    with pytest.raises(PrimitiveRefused, match="unknown arm"):
+        PrimitiveExecutor(world).grasp(0.0, 0.0, 0.02, 0.0, arm="middle")
