@@ -54,6 +54,10 @@ S = 0.0225  # half block
 L = 0.045  # long half of a rect
 
 
+GRID = list(zip([(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)],
+                ["cube", "cube", "cube", "cube", "cylinder", "cube", "cylinder", "cube"], strict=True))
+
+
 def packed_layouts():
     t = 0.0
     yield "case01", rot([  # cube walled by four rects
@@ -96,9 +100,7 @@ def packed_layouts():
     ], 0.15, 0.0, 0.01)
     yield "case07", rot([  # cube in a 3x3 grid of blocks
         obj("cube", 0, 0, target=True),
-        *[obj(shape, dx * (2 * S + G), dy * (2 * S + G))
-          for (dx, dy), shape in zip([(1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1)],
-                                     ["cube", "cube", "cube", "cube", "cylinder", "cube", "cylinder", "cube"], strict=False)],
+        *[obj(shape, dx * (2 * S + G), dy * (2 * S + G)) for (dx, dy), shape in GRID],
     ], 0.4, 0.0, 0.0)
     yield "case08", rot([  # twelve: cube target in two rings
         obj("cube", 0, 0, target=True),

@@ -75,6 +75,7 @@ class ArmSpec:
     xyz: tuple[float, float, float]
     rpy: tuple[float, float, float]
     home: tuple[float, ...]
+    ik_branch: tuple[int, int, int]  # (shoulder, wrist, elbow) signs of the closed-form IK branch
 
 
 @dataclass(frozen=True)
@@ -108,6 +109,7 @@ class GripperSpec:
 @dataclass(frozen=True)
 class PrimitiveSpec:
     approach_height: float
+    transit_height: float
     grasp_depth: float
     grasp_min_z: float
     lift_height: float
@@ -116,6 +118,7 @@ class PrimitiveSpec:
     push_min_z: float
     push_window_px: int
     cartesian_speed: float
+    push_speed: float
     waypoint_step: float
     time_budget: float
 
@@ -180,7 +183,11 @@ def _robot(raw: dict) -> RobotSpec:
     arms = {}
     for name, arm in _get(sec, "arms", "robot.").items():
         w = f"robot.arms.{name}."
-        arms[name] = ArmSpec(name, _tuple(arm, "xyz", w, 3), _tuple(arm, "rpy", w, 3), _tuple(arm, "home", w, 6))
+        branch = tuple(int(v) for v in _tuple(arm, "ik_branch", w, 3))
+        if any(v not in (1, -1) for v in branch):
+            raise ValueError(f"geometry config: '{w}ik_branch' must hold three signs (1 or -1), got {branch}")
+        arms[name] = ArmSpec(name, _tuple(arm, "xyz", w, 3), _tuple(arm, "rpy", w, 3), _tuple(arm, "home", w, 6),
+                             branch)
     return RobotSpec(
         urdf=CATKIN_SRC / str(_get(sec, "urdf", "robot.")),
         dh_d=_tuple(dh, "d", "robot.dh.", 6),

@@ -19,7 +19,7 @@ _OPTICAL_TO_GL = np.diag([1.0, -1.0, -1.0, 1.0])
 
 @dataclass(frozen=True)
 class Frame:
-    """One capture. color (H, W, 3) uint8; depth (H, W) float32 m (0 = no return); segmentation (H, W) int32 body ids."""
+    """One capture: color (H, W, 3) uint8; depth (H, W) float32 m (0 = no return); segmentation (H, W) int32 ids."""
 
     color: np.ndarray
     depth: np.ndarray
@@ -87,6 +87,9 @@ class SimCamera:
             renderer=self.renderer_,
             shadow=0,
             lightDirection=[0.3, 0.2, 1.0],
+            lightAmbientCoeff=0.65,  # soft light: vertical faces stay close to their colour, as under room light
+            lightDiffuseCoeff=0.4,
+            lightSpecularCoeff=0.02,
             physicsClientId=self.client_,
         )
         rgba = np.asarray(rgba, dtype=np.uint8).reshape(s.height, s.width, 4)

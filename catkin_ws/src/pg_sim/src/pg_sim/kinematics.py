@@ -93,6 +93,26 @@ def dh_fk(q: Sequence[float], d: Sequence[float], a: Sequence[float], alpha: Seq
     return dh_chain(q, d, a, alpha)[-1]
 
 
+def arm_branch(
+    q: Sequence[float], d: Sequence[float], a: Sequence[float], alpha: Sequence[float]
+) -> tuple[int, int, int]:
+    """IK branch of a UR configuration as signs ``(shoulder, elbow, wrist)``, each +1 or -1.
+
+    - shoulder: +1 when the wrist (DH frame 3 origin) lies in front of the base axis, i.e. on the side the upper
+      arm points to at ``q2 = 0`` (-x of DH frame 1), -1 when the arm reaches over its back;
+    - elbow: sign of ``sin(q3)`` (+1 = elbow up for a shoulder-forward arm);
+    - wrist: sign of ``sin(q5)`` (-1 = wrist down, the "tool straight down" configurations of this project).
+
+    Two configurations with the same branch are joined by IK solutions without a shoulder, elbow or wrist flip.
+    """
+    frames = dh_chain(q, d, a, alpha)
+    forward = -frames[1][:3, 0]
+    shoulder = 1 if float(forward[:2] @ frames[3][:2, 3]) >= 0.0 else -1
+    elbow = 1 if np.sin(q[2]) >= 0.0 else -1
+    wrist = 1 if np.sin(q[4]) >= 0.0 else -1
+    return shoulder, elbow, wrist
+
+
 def arm_base_pose(arm_spec: Any) -> np.ndarray:
     """4x4 transform ``world <- <arm>_base_link`` of one arm (``geometry.robot.arms[name]``: xyz in m, rpy in rad)."""
     return transform(arm_spec.xyz, arm_spec.rpy)

@@ -36,7 +36,7 @@ class PrimitiveResult:
 class _Plan:
     arm: str
     approach: list[np.ndarray]  # joint path home -> pre-pose (joint-space transit)
-    cartesian: list[list[np.ndarray]]  # joint paths of straight Cartesian segments, in order
+    cartesian: list[list[np.ndarray]]  # joint paths of straight-line Cartesian polylines, in order
     lengths: list[list[float]]  # Cartesian length (m) of each step in each segment
 
 
@@ -56,7 +56,7 @@ class PrimitiveExecutor:
         pre = target + [0, 0, pr.approach_height]
         lift = target + [0, 0, pr.lift_height]
         self._check_workspace({"grasp point": target, "pre-grasp pose": pre, "lift pose": lift})
-        plan = self._plan(arm, yaw, pre, [[pre, target], [target, lift]])
+        plan = self._plan(arm, yaw, pre, [[self._above(pre), pre, target], [target, lift]])
         return self._run(plan, "grasp")
 
     def push(self, x: float, y: float, z: float, yaw: float, arm: str = "") -> PrimitiveResult:
@@ -68,10 +68,14 @@ class PrimitiveExecutor:
         b = self.geo_.workspace.bounds
         end[:2] = np.clip(end[:2], b[:2, 0], b[:2, 1])  # as VPG: the push end is clipped to the workspace
         post = end + [0, 0, pr.approach_height]
-        plan = self._plan(arm, yaw, pre, [[pre, start], [start, end], [end, post]])
+        plan = self._plan(arm, yaw, pre, [[self._above(pre), pre, start], [start, end], [end, post]])
         return self._run(plan, "push")
 
     # -- planning ----------------------------------------------------------------------------------------------
+    def _above(self, pre: np.ndarray) -> np.ndarray:
+        """The transit point above the pre-pose (free-space moves happen at transit_height)."""
+        return np.array([pre[0], pre[1], max(self.prims_.transit_height, pre[2])])
+
     def _check_workspace(self, points: dict[str, np.ndarray]) -> None:
         ws = self.geo_.workspace
         for what, pt in points.items():
@@ -92,7 +96,7 @@ class PrimitiveExecutor:
     def _plan(self, arm: str, yaw: float, pre: np.ndarray, segments: list[list[np.ndarray]]) -> _Plan:
         reasons = []
         for name in self._arm_order(arm, pre[:2]):
-            plan = self._plan_arm(name, yaw, pre, segments)
+            plan = self._plan_arm(name, yaw, segments)
             if plan is not None:
                 return plan
             reasons.append(name)
@@ -101,22 +105,24 @@ class PrimitiveExecutor:
             f"{', '.join(reasons)} (no IK solution along the straight-line path)"
         )
 
-    def _plan_arm(self, arm: str, yaw: float, pre: np.ndarray, segments: list[list[np.ndarray]]) -> _Plan | None:
+    def _plan_arm(self, arm: str, yaw: float, segments: list[list[np.ndarray]]) -> _Plan | None:
+        """IK along each polyline (every waypoint_step m), seeded from the previous waypoint; None if any fails."""
         ik, step = self.world_.ik, self.prims_.waypoint_step
         current = self.world_.arms[arm].joints()
-        q = ik.solve(arm, pre, yaw, np.array(self.geo_.robot.arms[arm].home))
+        q = ik.solve(arm, segments[0][0], yaw, np.array(self.geo_.robot.arms[arm].home))
         if q is None:
             return None
         paths, lengths = [], []
-        for a, b in segments:
-            n = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
+        for polyline in segments:
             path, seg_len = [q], []
-            for i in range(1, n + 1):
-                q = ik.solve(arm, a + (b - a) * (i / n), yaw, q)
-                if q is None or np.abs(q - path[-1]).max() > 0.5:  # unreachable or a wrist flip mid-line
-                    return None
-                path.append(q)
-                seg_len.append(float(np.linalg.norm(b - a)) / n)
+            for a, b in zip(polyline[:-1], polyline[1:], strict=True):
+                n = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
+                for i in range(1, n + 1):
+                    q = ik.solve(arm, a + (b - a) * (i / n), yaw, q)
+                    if q is None or np.abs(q - path[-1]).max() > 0.5:  # unreachable or a wrist flip mid-line
+                        return None
+                    path.append(q)
+                    seg_len.append(float(np.linalg.norm(b - a)) / n)
             paths.append(path)
             lengths.append(seg_len)
         return _Plan(arm=arm, approach=[current, paths[0][0]], cartesian=paths, lengths=lengths)
@@ -139,8 +145,9 @@ class PrimitiveExecutor:
                 held = self._held_object(driver) if grasped else None
                 message = "grasped" if grasped else "nothing grasped: fingers closed"
             else:
-                for seg, lens in zip(plan.cartesian[1:], plan.lengths[1:], strict=True):
-                    driver.follow(seg, [length / speed for length in lens])
+                pushing, after = plan.cartesian[1:], plan.lengths[1:]
+                driver.follow(pushing[0], [length / self.prims_.push_speed for length in after[0]])
+                driver.follow(pushing[1], [length / speed for length in after[1]])
                 message = "pushed"
             executed = True
         except MotionTimeout as exc:

@@ -21,10 +21,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
     imp = cmds.add_parser("import-vpg", help="convert a VPG/Xu text test case to a scene YAML")
     imp.add_argument("file", type=Path, help="text case: one `mesh r g b x y z a b c` line per object, row 0 = target")
-    imp.add_argument("--mesh-dir", type=Path, default=None, help="directory of meshes the case names (numbered VPG meshes)")
+    imp.add_argument("--mesh-dir", type=Path, default=None, help="directory of the meshes the case names")
     imp.add_argument("--out", required=True, type=Path, help="output scene YAML")
     imp.add_argument("--name", default=None, help="scene name (default: the file's stem)")
     imp.set_defaults(run=_import)
+
+    bench = cmds.add_parser("bench", help="median wall time of one primitive and one observation in clutter")
+    bench.add_argument("--objects", type=int, default=20, help="objects in the random scene (default 20)")
+    bench.add_argument("--primitives", type=int, default=20, help="primitives to time (default 20)")
+    bench.add_argument("--observations", type=int, default=20, help="observations to time (default 20)")
+    bench.add_argument("--seed", type=int, default=0, help="scene and action seed (default 0)")
+    bench.set_defaults(run=_bench)
 
 
 def _list(args: argparse.Namespace) -> int:
@@ -44,6 +51,13 @@ def _render(args: argparse.Namespace) -> int:
     with make_world_with_scene(args.scene, args.seed) as world:
         render_scene_png(world, args.out)
     print(f"wrote {args.out}")
+    return 0
+
+
+def _bench(args: argparse.Namespace) -> int:
+    from pg_sim.bench import run
+
+    print(run(args.objects, args.primitives, args.observations, args.seed).report())
     return 0
 
 
