@@ -12,6 +12,8 @@ import sys
 
 COMMANDS: dict[str, str] = {
     "scene": "pg_sim.scene_cli:add_parser",
+    "train": "pg_policy.train_cli:add_parser",
+    "eval": "pg_policy.eval_cli:add_parser",
 }
 
 

@@ -1,5 +1,7 @@
 """Named object colours (RGB, integers 0-255), shared by scenes, the importer and the target masks.
 
+The colour data live in :mod:`pg_policy.palette` (one source of colours); this module re-exports them.
+
 ``COLORS`` is the palette of VPG (Zeng et al. 2018) and of the paper's block scenes; ``green`` (89, 161, 79) is the
 target colour by default (DESIGN.md section 6). ``PALETTE`` = ``COLORS`` plus ``white`` (the authors' household milk box
 is white); scenes may use any ``PALETTE`` name, random scenes draw from ``COLORS``.
@@ -10,23 +12,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-RGB = tuple[int, int, int]
+from pg_policy.palette import COLORS, PALETTE, RGB, TARGET_COLOR, palette_rgb
 
-COLORS: dict[str, RGB] = {  # the VPG palette (random scenes draw from these)
-    "blue": (78, 121, 167),
-    "green": (89, 161, 79),
-    "brown": (156, 117, 95),
-    "orange": (242, 142, 43),
-    "yellow": (237, 201, 72),
-    "gray": (186, 176, 172),
-    "red": (255, 87, 87),
-    "purple": (176, 122, 161),
-    "cyan": (118, 183, 178),
-    "pink": (255, 157, 167),
-}
-PALETTE: dict[str, RGB] = {**COLORS, "white": (255, 255, 255)}  # every name a scene may use
-
-TARGET_COLOR = "green"
+__all__ = ["COLORS", "PALETTE", "RGB", "TARGET_COLOR", "color_name", "nearest_color_name", "resolve_color", "rgba"]
 
 
 def resolve_color(value: str | Sequence[int]) -> RGB:
@@ -35,10 +23,7 @@ def resolve_color(value: str | Sequence[int]) -> RGB:
     Raises ValueError for an unknown name, a triple of the wrong length, non-integers or values outside 0-255.
     """
     if isinstance(value, str):
-        key = value.strip().lower().replace("grey", "gray")
-        if key not in PALETTE:
-            raise ValueError(f"unknown colour {value!r}; known colours: {', '.join(sorted(PALETTE))}")
-        return PALETTE[key]
+        return palette_rgb(value)
     try:
         items = list(value)
     except TypeError:

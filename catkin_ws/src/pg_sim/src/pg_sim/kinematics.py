@@ -78,7 +78,8 @@ def dh_chain(
 ) -> list[np.ndarray]:
     """All DH frames ``base_link <- frame_i`` for i = 0..n (frame 0 is the identity, frame n is tool0)."""
     if not (len(q) == len(d) == len(a) == len(alpha)):
-        raise ValueError(f"dh_chain: q, d, a, alpha must have equal lengths, got {len(q)}, {len(d)}, {len(a)}, {len(alpha)}")
+        lengths = (len(q), len(d), len(a), len(alpha))
+        raise ValueError(f"dh_chain: q, d, a, alpha must have equal lengths, got {lengths}")
     frames = [np.eye(4)]
     for qi, di, ai, al in zip(q, d, a, alpha, strict=True):
         frames.append(frames[-1] @ dh_transform(float(qi), float(di), float(ai), float(al)))

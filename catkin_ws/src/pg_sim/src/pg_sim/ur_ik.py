@@ -73,7 +73,7 @@ def ik_all(t: np.ndarray, d: Sequence[float], a: Sequence[float], alpha: Sequenc
 
 
 def closest(sols: list[np.ndarray], seed: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray | None:
-    """The solution nearest to `seed` (each joint shifted by multiples of 2 pi within [lower, upper]); None if none fit."""
+    """The solution nearest `seed`, each joint shifted by 2 pi multiples within [lower, upper]; None if none fits."""
     best, best_cost = None, np.inf
     for q in sols:
         shifted = q + 2 * np.pi * np.round((seed - q) / (2 * np.pi))

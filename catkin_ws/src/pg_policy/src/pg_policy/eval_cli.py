@@ -1,0 +1,162 @@
+"""`pushgrasp eval`: run the evaluation protocol (pg_policy.evaluate) for a policy on scenes and write the results
+(pg_policy.eval_report). Heavy modules (pybullet, torch) are imported inside the handler.
+
+Errors (unknown policy, unknown scene, missing model file, a training seed) end the command with status 2 and one
+line on stderr (pg_policy.cli.main).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+from pg_policy.evaluate import (
+    DEFAULT_JITTER_XY,
+    DEFAULT_JITTER_YAW,
+    DEFAULT_MAX_ACTIONS,
+    DEFAULT_MAX_FAILED_GRASPS,
+    DEFAULT_SEED,
+    MIN_EVAL_SEED,
+)
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    ev = sub.add_parser(
+        "eval", help="evaluate a policy on scenes (completion, grasp success, motion number; DESIGN.md section 8)",
+        description="Run trials of a policy and write results.json, results.md (C, GS, MN per scene) and results.png.",
+    )
+    ev.add_argument("--policy", required=True,
+                    help="registered policy (random, heuristic, grasp-only, learned) or a model directory/file "
+                         "(a directory with grasp.pt and push.pt runs `learned`, grasp.pt alone `grasp-only`)")
+    ev.add_argument("--model", nargs="+", type=Path, default=[],
+                    help="models of grasp-only/learned: a directory with grasp.pt [push.pt], or grasp.pt [push.pt]")
+    ev.add_argument("--scenes", nargs="+", required=True,
+                    help="packed, household, random-10|random-15|random-20 (any random-N), scene names "
+                         "(packed/case01) or scene YAML files")
+    ev.add_argument("--trials", type=int, required=True, help="trials per scene")
+    ev.add_argument("--seed", type=int, default=DEFAULT_SEED,
+                    help=f"trial i uses seed SEED + i (default {DEFAULT_SEED}; must be >= {MIN_EVAL_SEED}: "
+                         "training uses the seeds below)")
+    ev.add_argument("--allow-train-seeds", action="store_true", help=f"accept --seed below {MIN_EVAL_SEED}")
+    ev.add_argument("--out", type=Path, required=True, help="output directory")
+    ev.add_argument("--max-actions", type=int, default=DEFAULT_MAX_ACTIONS,
+                    help=f"action budget per trial (default {DEFAULT_MAX_ACTIONS})")
+    ev.add_argument("--max-failed-grasps", type=int, default=DEFAULT_MAX_FAILED_GRASPS,
+                    help=f"failed grasp attempts that end a trial (default {DEFAULT_MAX_FAILED_GRASPS})")
+    ev.add_argument("--jitter-xy", type=float, default=DEFAULT_JITTER_XY,
+                    help=f"fixed scenes: seeded rigid shift of the whole scene, uniform +- m (default "
+                         f"{DEFAULT_JITTER_XY}; 0 with --jitter-yaw 0 = the exact file)")
+    ev.add_argument("--jitter-yaw", type=float, default=math.degrees(DEFAULT_JITTER_YAW),
+                    help=f"fixed scenes: seeded rigid rotation of the whole scene, uniform +- deg (default "
+                         f"{math.degrees(DEFAULT_JITTER_YAW)})")
+    ev.add_argument("--grasp-threshold", type=float, default=None,
+                    help="learned: override the grasp threshold of the model metadata")
+    ev.add_argument("--device", default="cpu", help="torch device of learned policies (default cpu)")
+    ev.add_argument("--workers", type=int, default=1,
+                    help="parallel simulator processes (default 1); results do not depend on it")
+    ev.add_argument("--no-progress", action="store_true", help="no progress bar")
+    ev.set_defaults(run=_run)
+
+
+# -- worker processes (each holds one SimEnv and one policy) ---------------------------------------------------
+_WORKER: dict[str, Any] = {}
+
+
+def _worker_init(policy: str, opts: Any) -> None:
+    from pg_policy.policies import make_policy
+    from pg_policy.sim_env import SimEnv
+
+    _WORKER["env"] = SimEnv()
+    _WORKER["policy"] = make_policy(policy, opts)
+
+
+def _worker_trial(index: int, name: str, seed: int, plan: Any) -> tuple[int, Any]:
+    from pg_policy.evaluate import run_trial, trial_scene
+
+    scene = trial_scene(name, seed, plan.jitter_xy, plan.jitter_yaw)
+    return index, run_trial(_WORKER["env"], _WORKER["policy"], scene, seed, plan.limits, scene_name=name)
+
+
+def run_trials(policy: str, opts: Any, plan: Any, workers: int, on_trial: Any = None) -> list[Any]:
+    """All trials of `plan` (in plan order) with `workers` processes (1 = in this process); `on_trial(record)` is
+    called as each finishes."""
+    from pg_policy.evaluate import run_plan
+
+    if workers <= 1:
+        from pg_policy.policies import make_policy
+        from pg_policy.sim_env import SimEnv
+
+        with SimEnv() as env:
+            return run_plan(env, make_policy(policy, opts), plan, on_trial)
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    jobs = plan.jobs()
+    results: list[Any] = [None] * len(jobs)
+    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"), initializer=_worker_init,
+                             initargs=(policy, opts)) as pool:
+        futures = [pool.submit(_worker_trial, i, name, seed, plan) for i, (name, seed) in enumerate(jobs)]
+        for fut in as_completed(futures):
+            i, rec = fut.result()
+            results[i] = rec
+            if on_trial is not None:
+                on_trial(rec)
+    return results
+
+
+def _run(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from tqdm import tqdm
+
+    from pg_policy.eval_report import git_commit, write_results
+    from pg_policy.evaluate import EvalPlan, Limits, check_seed, expand_scenes
+    from pg_policy.policies import PolicyOptions, make_policy
+
+    check_seed(args.seed, args.allow_train_seeds)
+    if args.trials < 1:
+        raise ValueError(f"--trials must be >= 1, got {args.trials}")
+    if args.jitter_xy < 0 or args.jitter_yaw < 0:
+        raise ValueError("--jitter-xy and --jitter-yaw must be >= 0")
+    scenes = expand_scenes(args.scenes)
+    opts = PolicyOptions(models=tuple(args.model), seed=args.seed, device=args.device,
+                         grasp_threshold=args.grasp_threshold)
+    policy = make_policy(args.policy, opts)  # validates the name and the model files before any simulation
+    if hasattr(policy, "grasp_net"):
+        opts = replace(opts, models=(policy.grasp_net.path,) + ((policy.push_net.path,) if hasattr(policy, "push_net")
+                                                                  else ()))
+    del policy
+    plan = EvalPlan(tuple(scenes), args.trials, args.seed, Limits(args.max_actions, args.max_failed_grasps),
+                    args.jitter_xy, math.radians(args.jitter_yaw))
+    config = {
+        "policy": args.policy, "models": [str(p) for p in opts.models], "scenes": scenes, "trials": args.trials,
+        "seed": args.seed, "trial_seeds": f"seed + i for trial i = 0..{args.trials - 1}",
+        "max_actions": args.max_actions, "max_failed_grasps": args.max_failed_grasps,
+        "jitter_xy_m": args.jitter_xy, "jitter_yaw_deg": args.jitter_yaw, "grasp_threshold": args.grasp_threshold,
+        "git_commit": git_commit(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "workers": args.workers,
+        "host_cpus": os.cpu_count(),
+    }
+    done: list[Any] = []
+    bar = tqdm(total=len(plan.jobs()), desc=f"eval {args.policy}", unit="trial", disable=args.no_progress)
+
+    def on_trial(rec: Any) -> None:
+        done.append(rec)
+        graspers = [t.grasp_success for t in done if t.grasp_success is not None]
+        gs = f"{100 * sum(graspers) / len(graspers):.0f}%" if graspers else "n/a"
+        bar.set_postfix_str(f"C {100 * sum(t.completed for t in done) / len(done):.0f}% GS {gs} last {rec.scene}")
+        bar.update(1)
+
+    t0 = time.perf_counter()
+    try:
+        trials = run_trials(args.policy, opts, plan, args.workers, on_trial)
+    finally:
+        bar.close()
+    config["wall_s"] = round(time.perf_counter() - t0, 1)
+    paths = write_results(args.out, trials, config)
+    print(paths["md"].read_text(encoding="utf-8").split("\n\nC: ")[0])
+    print(f"wrote {', '.join(str(p) for p in paths.values())}")
+    return 0

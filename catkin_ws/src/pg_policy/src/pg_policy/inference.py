@@ -1,0 +1,126 @@
+"""Q maps from a heightmap: the grasp and push nets (eager QNet or loaded TorchScript) behind one call.
+
+`PolicyNets.q_maps(heightmap, mask)` -> {"grasp": (R, H, W) float32, "push": (R, H, W) float32}; Q[k, row, col] is the
+value of the primitive at heightmap cell (row, col) with gripper yaw = rotations[k] * 360 / R degrees in `world`
+(convention of `pg_policy.nets.qnet`). Runs under torch.inference_mode with the nets in eval mode; the number of
+torch threads is the caller's business (torch.set_num_threads).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from torch import Tensor, nn
+
+from pg_policy.heightmap import Heightmap
+
+ROLES = ("grasp", "push")
+Window = tuple[int, int, int, int]  # (row0, row1, col0, col1), half-open, heightmap cells
+
+
+def heightmap_tensors(heightmap: Heightmap, mask: np.ndarray, window: Window | None = None,
+                      device: str | torch.device = "cpu") -> tuple[Tensor, Tensor, Tensor]:
+    """Net inputs from a heightmap: colour (1, 3, h, w) float32 in [0, 1], depth (1, 1, h, w) float32 metres,
+    mask (1, 1, h, w) float32 {0, 1}; cropped to `window` if given. Raises ValueError for a mask of the wrong shape."""
+    mask = np.asarray(mask)
+    if mask.shape != heightmap.height.shape:
+        raise ValueError(f"mask shape {mask.shape} != heightmap shape {heightmap.height.shape}")
+    color, height = heightmap.color, heightmap.height
+    if window is not None:
+        r0, r1, c0, c1 = window
+        if not (0 <= r0 < r1 <= height.shape[0] and 0 <= c0 < c1 <= height.shape[1]):
+            raise ValueError(f"window {window} outside the heightmap {height.shape}")
+        color, height, mask = color[r0:r1, c0:c1], height[r0:r1, c0:c1], mask[r0:r1, c0:c1]
+    c = torch.from_numpy(np.ascontiguousarray(color)).to(device).permute(2, 0, 1).unsqueeze(0).float() / 255.0
+    d = torch.from_numpy(np.ascontiguousarray(height, dtype=np.float32)).to(device)[None, None]
+    m = torch.from_numpy(np.ascontiguousarray(mask, dtype=np.float32)).to(device)[None, None]
+    return c, d, m
+
+
+def target_window(mask: np.ndarray, margin: int, multiple: int = 16, min_size: int = 64) -> Window | None:
+    """Square-ish window (row0, row1, col0, col1) around the True cells of `mask` (H, W) grown by `margin` cells,
+    sides rounded up to `multiple` and at least `min_size`, shifted/clipped to the map. None if the mask is empty."""
+    rows, cols = np.nonzero(mask)
+    if rows.size == 0:
+        return None
+    h, w = mask.shape
+
+    def span(lo: int, hi: int, size: int) -> tuple[int, int]:
+        n = max(hi - lo + 1 + 2 * margin, min_size)
+        n = min(-(-n // multiple) * multiple, size)
+        start = min(max((lo + hi + 1 - n) // 2, 0), size - n)
+        return start, start + n
+
+    r0, r1 = span(int(rows.min()), int(rows.max()), h)
+    c0, c1 = span(int(cols.min()), int(cols.max()), w)
+    return r0, r1, c0, c1
+
+
+class PolicyNets:
+    """The grasp net and the push net (eager `QNet` or scripted, not traced: `rotate_inputs`/`q_from_rotated` are
+    used); `metadata` holds each net's export metadata (empty for eager nets)."""
+
+    def __init__(self, grasp: nn.Module, push: nn.Module, metadata: dict[str, dict[str, Any]] | None = None,
+                 device: str | torch.device = "cpu") -> None:
+        self.device = torch.device(device)
+        self.nets: dict[str, nn.Module] = {"grasp": grasp.to(self.device).eval(), "push": push.to(self.device).eval()}
+        self.metadata = metadata or {role: {} for role in ROLES}
+        rots = {int(net.num_rotations) for net in self.nets.values()}
+        if len(rots) != 1:
+            raise ValueError(f"grasp and push nets disagree on the number of rotations: {sorted(rots)}")
+        self.num_rotations = rots.pop()
+
+    @classmethod
+    def from_files(cls, grasp_path: str | Path, push_path: str | Path, device: str | torch.device = "cpu",
+                   check_geometry: bool = True) -> PolicyNets:
+        """Load two exported TorchScript files (see `pg_policy.model_io`); raises ModelLoadError (a ValueError) for a
+        bad file or a file whose metadata names another role or another heightmap geometry."""
+        from pg_policy.model_io import ModelLoadError, load_qnet
+
+        nets, meta = {}, {}
+        for role, path in (("grasp", grasp_path), ("push", push_path)):
+            nets[role], meta[role] = load_qnet(path, check_geometry=check_geometry, map_location=device)
+            if meta[role].get("role") != role:
+                raise ModelLoadError(f"{path}: exported as the {meta[role].get('role')!r} net, expected {role!r}")
+        return cls(nets["grasp"], nets["push"], meta, device)
+
+    @classmethod
+    def random(cls, backbone: str = "lite", goal: str = "mask", rotations: int = 16, seed: int = 0) -> PolicyNets:
+        """Untrained eager nets with a reproducible initialisation (benchmarks, tests)."""
+        from pg_policy.nets.qnet import QNetConfig, build_qnet
+
+        cfg = QNetConfig(backbone=backbone, goal=goal, rotations=rotations)
+        return cls(build_qnet(cfg, seed=seed), build_qnet(cfg, seed=seed + 1))
+
+    def q_maps(self, heightmap: Heightmap, mask: np.ndarray, rotations: Sequence[int] | None = None,
+               nets: Sequence[str] = ROLES, window: Window | None = None) -> dict[str, np.ndarray]:
+        """{role: Q (R, h, w) float32} for each role in `nets`, R = len(rotations) (default all, in index order).
+
+        mask: (H, W) bool/{0, 1} goal mask (an input of "mask" nets only). window: compute on that crop only; the
+        maps are then (R, row1 - row0, col1 - col0) with [0, 0] at (row0, col0). The rotated input canvases are
+        computed once and shared by nets with the same goal variant. Raises ValueError for unknown roles or shapes.
+        """
+        unknown = [n for n in nets if n not in self.nets]
+        if unknown:
+            raise ValueError(f"unknown nets {unknown}; known: {list(self.nets)}")
+        rots = list(range(self.num_rotations)) if rotations is None else [int(r) for r in rotations]
+        c, d, m = heightmap_tensors(heightmap, mask, window, self.device)
+        h, w = d.shape[2], d.shape[3]
+        out: dict[str, np.ndarray] = {}
+        shared: dict[bool, tuple[Tensor, Tensor]] = {}
+        with torch.inference_mode():
+            for role in nets:
+                net = self.nets[role]
+                key = bool(net.use_mask)
+                if key not in shared:
+                    shared[key] = net.rotate_inputs(c, d, m, rots)
+                q = net.q_from_rotated(shared[key][0], shared[key][1], rots, h, w)
+                out[role] = q[0].float().cpu().numpy()
+        return out
+
+
+QInference = PolicyNets

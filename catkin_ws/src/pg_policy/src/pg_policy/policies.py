@@ -1,0 +1,299 @@
+"""Policies the evaluation (and the policy node) can run, by name: a registry of baselines and learned policies.
+
+A policy maps an observation (pg_policy.sim_env.EnvObservation, or anything with `.heightmap` and `.target`, the
+target's palette colour name) to a pg_policy.decision.Decision. It finds the target itself, from the colour
+heightmap with pg_policy.target_mask (never from the simulator's ground truth). `reset(seed)` starts a new trial
+(seeding the policy's own randomness); `q_maps()` returns the Q maps behind the last decision ({"grasp": (R, H, W),
+"push": (R, H, W)} float arrays) for policies that have them, else {}.
+
+REGISTRY (name -> factory taking PolicyOptions):
+- ``random``: uniformly random primitive, rotation and cell, the cell drawn within the target mask grown by
+  ``RANDOM_RADIUS_M`` (any object cell when the target is not visible); seeded by reset(seed).
+- ``heuristic``: the geometric rule of pg_policy.heuristic.
+- ``grasp-only``: a learned grasp net (TorchScript); always grasps at the argmax of Q_g over the target mask.
+- ``learned``: grasp + push nets; pg_policy.decision.decide with the grasp threshold from the grasp model's metadata.
+Learned policies are given models as a directory holding grasp.pt (and push.pt), the layout `pushgrasp export`
+writes, or as files (grasp first); see `resolve_models`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from pg_policy.decision import Decision, action_pose
+from pg_policy.geometry import Geometry, load
+from pg_policy.heightmap import Heightmap
+
+RANDOM_RADIUS_M = 0.02
+GRASP_FILE = "grasp.pt"
+PUSH_FILE = "push.pt"
+
+
+class UnknownPolicyError(ValueError):
+    """A policy name that is neither registered nor a model path; the message lists the registry."""
+
+
+@runtime_checkable
+class Policy(Protocol):
+    name: str
+
+    def reset(self, seed: int | None = None) -> None: ...
+
+    def act(self, obs: Any) -> Decision: ...
+
+    def q_maps(self) -> dict[str, np.ndarray]: ...
+
+
+@dataclass(frozen=True)
+class PolicyOptions:
+    """models: model files/directories (learned policies); seed: default seed before the first reset; geometry:
+    the workspace config (default: pg_policy.geometry.load()); device: torch device; grasp_threshold: overrides the
+    model metadata's threshold (learned)."""
+
+    models: tuple[Path, ...] = ()
+    seed: int = 0
+    geometry: Geometry | None = None
+    device: str = "cpu"
+    grasp_threshold: float | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def observed_target(obs: Any) -> np.ndarray:
+    """(H, W) bool target mask of the observation's colour heightmap for its target colour name (may be empty)."""
+    from pg_policy.target_mask import target_mask
+
+    hm: Heightmap = obs.heightmap
+    return target_mask(hm.color, hm.valid, obs.target)
+
+
+class _Base:
+    name = "base"
+
+    def __init__(self, opts: PolicyOptions) -> None:
+        self.geometry = opts.geometry or load()
+        self.prims = self.geometry.primitives
+        self.rotations = self.geometry.heightmap.rotations
+        self.rng = np.random.default_rng(opts.seed)
+        self._q: dict[str, np.ndarray] = {}
+
+    def reset(self, seed: int | None = None) -> None:
+        self.rng = np.random.default_rng(seed)
+        self._q = {}
+
+    def q_maps(self) -> dict[str, np.ndarray]:
+        return dict(self._q)
+
+    def decision(self, hm: Heightmap, primitive: str, rotation: int, row: int, col: int, q: float = float("nan"),
+                 grasp_q: float = float("nan")) -> Decision:
+        x, y, z, yaw = action_pose(hm, primitive, rotation, row, col, self.prims, self.rotations)
+        return Decision(primitive, rotation, row, col, q, yaw, x, y, z, grasp_q)
+
+
+class RandomPolicy(_Base):
+    """Random primitive, rotation, and cell near the target (module docstring)."""
+
+    name = "random"
+
+    def act(self, obs: Any) -> Decision:
+        from pg_policy.target_mask import dilate_mask
+
+        hm = obs.heightmap
+        target = observed_target(obs)
+        region = dilate_mask(target, hm.resolution, RANDOM_RADIUS_M) if target.any() else hm.height > 0.008
+        cells = np.argwhere(region)
+        if len(cells) == 0:
+            cells = np.argwhere(np.ones_like(hm.valid, dtype=bool))
+        row, col = cells[int(self.rng.integers(len(cells)))]
+        primitive = ("grasp", "push")[int(self.rng.integers(2))]
+        return self.decision(hm, primitive, int(self.rng.integers(self.rotations)), int(row), int(col))
+
+
+class HeuristicPolicy(_Base):
+    """pg_policy.heuristic's rule; remembers, within a trial, the grasps it tried (a later act() means they failed)
+    and where the target was last seen."""
+
+    name = "heuristic"
+
+    def __init__(self, opts: PolicyOptions) -> None:
+        from pg_policy.heuristic import HeuristicParams, HeuristicPlanner
+
+        super().__init__(opts)
+        self.planner = HeuristicPlanner(self.geometry, opts.extra.get("heuristic_params") or HeuristicParams())
+        self.tabu: list[tuple[int, float, float]] = []
+        self.last_seen: np.ndarray | None = None
+        self.last_action: Any = None
+
+    def reset(self, seed: int | None = None) -> None:
+        super().reset(seed)
+        self.tabu, self.last_seen, self.last_action = [], None, None
+
+    def act(self, obs: Any) -> Decision:
+        hm = obs.heightmap
+        target = observed_target(obs)
+        if target.sum() >= self.planner.p.min_target_cells:
+            rows, cols = np.nonzero(target)
+            self.last_seen = np.array([hm.bounds[0, 0] + (cols.mean() + 0.5) * hm.resolution,
+                                       hm.bounds[1, 0] + (rows.mean() + 0.5) * hm.resolution])
+        act = self.planner.plan(hm, target, self.tabu, self.last_seen, self.rng)
+        self.last_action = act
+        d = self.decision(hm, act.primitive, act.rotation, act.row, act.col, act.score)
+        if act.primitive == "grasp":
+            self.tabu.append((act.rotation, d.x, d.y))
+        return d
+
+
+# -- learned policies ----------------------------------------------------------------------------------------------
+def resolve_models(paths: Sequence[str | Path], need_push: bool) -> tuple[Path, Path | None]:
+    """(grasp model, push model or None) from a directory holding grasp.pt [+ push.pt] or from files (grasp first).
+
+    Raises FileNotFoundError naming what is missing (push.pt only when `need_push`), ValueError for > 2 paths.
+    """
+    ps = [Path(p).expanduser() for p in paths]
+    if not ps:
+        raise FileNotFoundError("no model given: pass a directory with grasp.pt/push.pt or the model file(s)")
+    if len(ps) > 2:
+        raise ValueError(f"at most two model files (grasp, push), got {len(ps)}")
+    if len(ps) == 1 and ps[0].is_dir():
+        grasp, push = ps[0] / GRASP_FILE, ps[0] / PUSH_FILE
+        if not grasp.is_file():
+            raise FileNotFoundError(f"model directory {ps[0]} has no {GRASP_FILE} (write one with `pushgrasp export`)")
+        if need_push and not push.is_file():
+            raise FileNotFoundError(f"model directory {ps[0]} has no {PUSH_FILE}; the learned policy needs both nets "
+                                    "(use --policy grasp-only for a grasp net alone)")
+        return grasp, push if push.is_file() else None
+    for p in ps:
+        if not p.is_file():
+            raise FileNotFoundError(f"model file not found: {p}")
+    if need_push and len(ps) < 2:
+        raise FileNotFoundError("the learned policy needs a push model too: pass grasp.pt and push.pt (or their dir)")
+    return ps[0], ps[1] if len(ps) > 1 else None
+
+
+class _QNetRunner:
+    """A TorchScript Q net (pg_policy.model_io.load_qnet) evaluated on one heightmap: (R, H, W) float32 Q maps."""
+
+    def __init__(self, path: Path, device: str) -> None:
+        from pg_policy.model_io import load_qnet
+
+        self.module, self.metadata = load_qnet(path)
+        self.path = path
+        self.device = device
+        self.module.to(device)
+        self.module.eval()
+        cfg = self.metadata.get("config") if isinstance(self.metadata, dict) else None
+        goal = (cfg or {}).get("goal") if isinstance(cfg, dict) else self.metadata.get("goal")
+        self.use_mask = bool(getattr(self.module, "use_mask", goal == "mask"))
+
+    def __call__(self, hm: Heightmap, mask: np.ndarray) -> np.ndarray:
+        import torch
+
+        with torch.no_grad():
+            color = torch.from_numpy(np.ascontiguousarray(hm.color, dtype=np.float32) / 255.0)
+            color = color.permute(2, 0, 1)[None].to(self.device)
+            depth = torch.from_numpy(np.asarray(hm.height, dtype=np.float32))[None, None].to(self.device)
+            m = torch.from_numpy(mask.astype(np.float32))[None, None].to(self.device) if self.use_mask else None
+            q = self.module(color, depth, m)
+        return q[0].float().cpu().numpy()
+
+
+def _goal_or_all(obs: Any) -> np.ndarray:
+    """The target mask; when the target is not visible, every object cell (goal-agnostic: uncover it)."""
+    from pg_policy.target_mask import MIN_VISIBLE_CELLS
+
+    target = observed_target(obs)
+    if target.sum() >= MIN_VISIBLE_CELLS:
+        return target
+    objects = obs.heightmap.height > 0.008
+    return objects if objects.any() else np.ones_like(target)
+
+
+class GraspOnlyPolicy(_Base):
+    """Always grasps at the argmax of Q_g over the target mask (all objects when the target is not visible)."""
+
+    name = "grasp-only"
+
+    def __init__(self, opts: PolicyOptions) -> None:
+        super().__init__(opts)
+        grasp, _ = resolve_models(opts.models, need_push=False)
+        self.grasp_net = _QNetRunner(grasp, opts.device)
+
+    def act(self, obs: Any) -> Decision:
+        from pg_policy.decision import masked_argmax
+
+        hm = obs.heightmap
+        mask = _goal_or_all(obs)
+        q = self.grasp_net(hm, mask)
+        self._q = {"grasp": q}
+        r, row, col, value = masked_argmax(q, mask & hm.valid if (mask & hm.valid).any() else mask)
+        return self.decision(hm, "grasp", r, row, col, value, value)
+
+
+def threshold_from_metadata(metadata: Any) -> float:
+    """The grasp threshold stored with a grasp model; ValueError when absent."""
+    md = metadata if isinstance(metadata, dict) else {}
+    for key in ("grasp_threshold", "threshold"):
+        if key in md:
+            return float(md[key])
+        for sub in md.values():
+            if isinstance(sub, dict) and key in sub:
+                return float(sub[key])
+    raise ValueError("the grasp model's metadata holds no grasp_threshold; pass --grasp-threshold")
+
+
+class LearnedPolicy(_Base):
+    """Grasp and push nets + pg_policy.decision.decide (grasp if masked max Q_g > threshold, else push)."""
+
+    name = "learned"
+
+    def __init__(self, opts: PolicyOptions) -> None:
+        super().__init__(opts)
+        grasp, push = resolve_models(opts.models, need_push=True)
+        self.grasp_net = _QNetRunner(grasp, opts.device)
+        self.push_net = _QNetRunner(push, opts.device)  # type: ignore[arg-type]
+        self.threshold = (opts.grasp_threshold if opts.grasp_threshold is not None
+                          else threshold_from_metadata(self.grasp_net.metadata))
+
+    def act(self, obs: Any) -> Decision:
+        from pg_policy.decision import decide
+
+        hm = obs.heightmap
+        mask = _goal_or_all(obs)
+        qg, qp = self.grasp_net(hm, mask), self.push_net(hm, mask)
+        self._q = {"grasp": qg, "push": qp}
+        return decide(qg, qp, mask, hm, self.prims, self.threshold)
+
+
+REGISTRY: dict[str, Callable[[PolicyOptions], Policy]] = {
+    "random": RandomPolicy,
+    "heuristic": HeuristicPolicy,
+    "grasp-only": GraspOnlyPolicy,
+    "learned": LearnedPolicy,
+}
+NEEDS_MODEL = ("grasp-only", "learned")
+
+
+def make_policy(name_or_path: str, opts: PolicyOptions | None = None) -> Policy:
+    """A policy by registry name, or `learned` / `grasp-only` from a model path given as the name (a directory with
+    grasp.pt and push.pt -> learned, with grasp.pt only or a single file -> grasp-only).
+
+    Raises UnknownPolicyError (a ValueError) listing the registry, FileNotFoundError for missing model files.
+    """
+    opts = opts or PolicyOptions()
+    if name_or_path in REGISTRY:
+        if name_or_path in NEEDS_MODEL and not opts.models:
+            raise FileNotFoundError(f"policy {name_or_path!r} needs a model: --model DIR (with {GRASP_FILE}"
+                                    f"{', ' + PUSH_FILE if name_or_path == 'learned' else ''}) or model file(s)")
+        return REGISTRY[name_or_path](opts)
+    path = Path(name_or_path).expanduser()
+    if path.is_dir() or path.suffix == ".pt" or path.exists():
+        kind = "learned" if (path.is_dir() and (path / PUSH_FILE).is_file()) else "grasp-only"
+        if not path.exists():
+            raise FileNotFoundError(f"model file not found: {path}")
+        return REGISTRY[kind](PolicyOptions(**{**opts.__dict__, "models": (path, *opts.models)}))
+    raise UnknownPolicyError(f"unknown policy {name_or_path!r}: not a registered policy "
+                             f"({', '.join(REGISTRY)}) nor a model file or directory")

@@ -1,0 +1,244 @@
+"""Self-supervised training loop of the paper: act in the simulator, label the executed pixel, learn, repeat.
+
+One iteration = observe -> masked Q maps -> epsilon-greedy decision -> execute -> reward (with hindsight
+relabelling) -> store in prioritised replay -> Huber loss on the executed pixel (grasps also at rotation r + R/2)
+for the new transition and `replay_samples` replayed ones -> log. Checkpoints (nets, optimisers, counters, RNG
+state; the replay lives on disk) every `checkpoint_every` iterations: rerunning the same command resumes.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from pg_policy import qtensor
+from pg_policy.geometry import load
+from pg_policy.heightmap import Heightmap
+from pg_policy.replay import ReplayBuffer, Transition
+from pg_policy.stages import STAGES, choose_primitive, epsilon, explore_action
+from pg_policy.train_config import TrainConfig
+
+LOG_FIELDS = ["iteration", "episode", "primitive", "rotation", "row", "col", "q", "explored", "reward", "grasped",
+              "success", "epsilon", "loss", "sim_s", "wall_s"]
+
+
+class Trainer:
+    """Owns the env, the two nets, their optimisers and replay buffers for one stage of one run directory."""
+
+    def __init__(self, cfg: TrainConfig) -> None:
+        from pg_policy.sim_env import SimEnv
+
+        torch.set_num_threads(cfg.threads)
+        torch.manual_seed(cfg.seed)
+        self.cfg = cfg
+        self.geo = load()
+        self.stage = STAGES[cfg.stage]
+        self.dir = Path(cfg.out) / cfg.stage
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.nets = {role: qtensor.build(cfg, role) for role in ("grasp", "push")}
+        self.opts = {role: torch.optim.Adam(net.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+                     for role, net in self.nets.items()}
+        shape = (self.geo.heightmap.rows, self.geo.heightmap.cols)
+        self.replay = {role: ReplayBuffer(self.dir / f"replay_{role}", cfg.replay_capacity, shape)
+                       for role in self.stage.trains}
+        self.iteration, self.episode = 0, 0
+        self.rng = np.random.default_rng(cfg.seed)
+        self._restore()
+        self.env = SimEnv(self.geo)
+        self.log_ = self.dir / "log.csv"
+
+    # -- checkpoints -------------------------------------------------------------------------------------------
+    def _restore(self) -> None:
+        last = self.dir / "last.pt"
+        if last.exists():
+            ck = torch.load(last, map_location="cpu", weights_only=False)
+            for role, net in self.nets.items():
+                net.load_state_dict(ck["nets"][role])
+            for role, opt in self.opts.items():
+                if role in ck["opts"]:
+                    opt.load_state_dict(ck["opts"][role])
+            self.iteration, self.episode = ck["iteration"], ck["episode"]
+            self.rng.bit_generator.state = ck["rng"]
+            print(f"[train] resuming {self.stage.name} at iteration {self.iteration} from {last}")
+            return
+        init = self.cfg.init or (Path(self.cfg.out) / self.stage.previous / "last.pt" if self.stage.previous else None)
+        if init is not None:
+            if not Path(init).exists():
+                raise FileNotFoundError(f"stage {self.stage.name} starts from {init}, which does not exist: train "
+                                        f"stage '{self.stage.previous}' first or pass --init")
+            ck = torch.load(init, map_location="cpu", weights_only=False)
+            for role, net in self.nets.items():
+                net.load_state_dict(ck["nets"][role])
+            print(f"[train] {self.stage.name}: starting from {init}")
+
+    def save(self) -> Path:
+        for buf in self.replay.values():
+            buf.flush()
+        ck = {"nets": {r: n.state_dict() for r, n in self.nets.items()},
+              "opts": {r: o.state_dict() for r, o in self.opts.items()},
+              "iteration": self.iteration, "episode": self.episode, "rng": self.rng.bit_generator.state,
+              "config": {k: str(v) for k, v in vars(self.cfg).items()}, "stage": self.stage.name}
+        tmp = self.dir / "last.pt.tmp"
+        torch.save(ck, tmp)
+        tmp.replace(self.dir / "last.pt")
+        return self.dir / "last.pt"
+
+    # -- learning ----------------------------------------------------------------------------------------------
+    def _label(self, t: Transition) -> float:
+        if t.primitive == "grasp" or t.done:
+            return t.reward
+        hm = Heightmap(t.next_color, t.next_height, t.next_height > 0, self.geo.heightmap.resolution,
+                       self.geo.workspace.bounds)
+        q = qtensor.q_maps(self.nets, hm, t.next_mask, ("grasp", "push"))
+        future = max(qtensor.masked_max(q["grasp"], t.next_mask), qtensor.masked_max(q["push"], t.next_mask))
+        return t.reward + self.cfg.gamma * future
+
+    def learn(self, t: Transition) -> tuple[float, float]:
+        """One Huber step on the executed pixel; returns (loss, |TD error|)."""
+        net, opt = self.nets[t.primitive], self.opts[t.primitive]
+        label = self._label(t)
+        net.train()
+        rots = [t.rotation]
+        if t.primitive == "grasp":
+            rots.append((t.rotation + self.cfg.rotations // 2) % self.cfg.rotations)  # symmetric parallel jaw
+        q = qtensor.forward(net, t.color, t.height, t.mask, rots)[0, :, t.row, t.col]
+        target = torch.full_like(q, label)
+        loss = torch.nn.functional.smooth_l1_loss(q, target, reduction="sum")
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        return float(loss), float(abs(q[0].item() - label))
+
+    # -- acting ------------------------------------------------------------------------------------------------
+    def _goal(self, obs) -> tuple[np.ndarray, str | None]:
+        """(goal mask, goal colour). Goal-agnostic: every object cell."""
+        from pg_policy.target_mask import target_mask
+
+        if self.stage.goal_agnostic:
+            return obs.heightmap.valid & (obs.heightmap.height > 0.01), None
+        return target_mask(obs.heightmap.color, obs.heightmap.valid, obs.target), obs.target
+
+    def _pick_target(self) -> None:
+        if self.stage.goal_agnostic:
+            return
+        colors = self.env.object_colors()
+        unique = [c for c in colors if colors.count(c) == 1]
+        if unique:
+            self.env.retarget(unique[int(self.rng.integers(len(unique)))])
+
+    def _reset(self) -> object:
+        self.episode += 1
+        kind, n = self.cfg.scene.split("-")
+        seed = (self.cfg.seed * 100_003 + self.episode) % 1_000_000
+        obs = self.env.reset(f"{kind}-{n}", seed=seed)
+        self._pick_target()
+        self.ep_ = {"actions": 0, "failed": 0, "pushes": 0}
+        return self.env.observe()
+
+    def _episode_over(self) -> bool:
+        ep, cfg = self.ep_, self.cfg
+        if ep["actions"] >= cfg.max_actions or ep["failed"] >= cfg.max_failed_grasps:
+            return True
+        if len(self.env.world.objects) == 0:
+            return True
+        return not self.stage.goal_agnostic and not self.env.target_present()
+
+    def step(self, obs) -> tuple[dict, object]:
+        """One iteration; returns (log row, next observation)."""
+        from pg_policy import rewards
+        from pg_policy.target_mask import target_mask
+
+        cfg, hm = self.cfg, obs.heightmap
+        goal, goal_color = self._goal(obs)
+        q = qtensor.q_maps(self.nets, hm, goal, ("grasp", "push") if self.stage.uses_push else ("grasp",))
+        gmax = qtensor.masked_max(q["grasp"], goal)
+        primitive = choose_primitive(self.stage, gmax, self.ep_["pushes"], cfg.grasp_threshold, cfg.max_pushes)
+        eps = epsilon(self.iteration, cfg.epsilon_start, cfg.epsilon_end, cfg.epsilon_decay)
+        region = goal if primitive == "grasp" else qtensor.push_region(goal, self.geo)
+        explored = bool(self.rng.random() < eps)
+        if explored:
+            rot, row, col = explore_action(self.rng, region, cfg.rotations)
+        else:
+            rot, row, col = qtensor.masked_argmax(q[primitive], region)
+        x, y, z, yaw = qtensor.action_pose(hm, primitive, rot, row, col, self.geo)
+        result = self.env.step(primitive, x, y, z, yaw)
+        self.ep_["actions"] += 1
+        nxt = self.env.observe()
+        if primitive == "grasp":
+            # hindsight relabelling: the goal of this grasp is the object under the executed pixel
+            pixel_color = qtensor.color_at(hm, row, col)
+            reward = rewards.grasp_reward(result.grasped_color is not None and result.grasped_color == pixel_color)
+            success = result.target_grasped if goal_color else result.grasped_color is not None
+            self.ep_["failed"] += 0 if success else 1
+            mask = target_mask(hm.color, hm.valid, pixel_color) if pixel_color else goal
+            t = Transition(hm.color, hm.height, mask, "grasp", rot, row, col, reward)
+        else:
+            self.ep_["pushes"] += 1
+            nmask = target_mask(nxt.heightmap.color, nxt.heightmap.valid, obs.target)
+            q_after = qtensor.q_maps(self.nets, nxt.heightmap, nmask, ("grasp",))
+            changed = rewards.scene_changed(hm, nxt.heightmap, goal, radius_m=0.05)
+            occ = [rewards.occupancy_ratio(h, m, 0.05, 0.01) for h, m in ((hm, goal), (nxt.heightmap, nmask))]
+            reward = rewards.push_reward(gmax, qtensor.masked_max(q_after["grasp"], nmask), changed, occ[0], occ[1])
+            success = reward > 0
+            t = Transition(hm.color, hm.height, goal, "push", rot, row, col, reward, nxt.heightmap.color,
+                           nxt.heightmap.height, nmask, done=False)
+        loss = 0.0
+        if t.primitive in self.replay:
+            loss, td = self.learn(t)
+            self.replay[t.primitive].add(t, td)
+            for _ in range(cfg.replay_samples):
+                i = self.replay[t.primitive].sample(self.rng)
+                if i is not None:
+                    _, td_i = self.learn(self.replay[t.primitive].get(i))
+                    self.replay[t.primitive].update_priority(i, td_i)
+        row_log = {"iteration": self.iteration, "episode": self.episode, "primitive": primitive, "rotation": rot,
+                   "row": row, "col": col, "q": round(float(q[primitive][rot, row, col]), 4), "explored": int(explored),
+                   "reward": reward, "grasped": int(result.grasped), "success": int(success),
+                   "epsilon": round(eps, 3), "loss": round(loss, 5), "sim_s": round(result.sim_time, 2)}
+        return row_log, nxt
+
+    def run(self) -> Path:
+        from tqdm import tqdm
+
+        cfg = self.cfg
+        new_log = not self.log_.exists()
+        start, wall0 = self.iteration, time.perf_counter()
+        recent: list[int] = []
+        with self.log_.open("a", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=LOG_FIELDS)
+            if new_log:
+                writer.writeheader()
+            obs = self._reset()
+            bar = tqdm(total=cfg.iterations, initial=self.iteration, desc=f"train {self.stage.name}", unit="it")
+            while self.iteration < cfg.iterations:
+                if cfg.minutes and time.perf_counter() - wall0 > cfg.minutes * 60:
+                    print(f"[train] wall-clock budget of {cfg.minutes} min reached")
+                    break
+                row, obs = self.step(obs)
+                row["wall_s"] = round(time.perf_counter() - wall0, 1)
+                writer.writerow(row)
+                if row["primitive"] == "grasp":
+                    recent = (recent + [row["success"]])[-100:]
+                self.iteration += 1
+                bar.update(1)
+                bar.set_postfix(grasp_success=f"{np.mean(recent):.2f}" if recent else "-", eps=row["epsilon"])
+                if self._episode_over():
+                    obs = self._reset()
+                if self.iteration % cfg.checkpoint_every == 0:
+                    f.flush()
+                    self.save()
+            bar.close()
+        path = self.save()
+        from pg_policy.curves import plot_curves
+
+        plot_curves(self.log_, self.dir / "curves.png", title=f"{self.stage.name} ({cfg.backbone}, goal {cfg.goal})")
+        (self.dir / "summary.json").write_text(json.dumps(
+            {"stage": self.stage.name, "iterations": self.iteration, "this_run": self.iteration - start,
+             "recent_grasp_success": float(np.mean(recent)) if recent else None}, indent=2))
+        self.env.close()
+        return path

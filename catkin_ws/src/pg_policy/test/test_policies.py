@@ -1,0 +1,135 @@
+"""The policy registry, the random and heuristic baselines on synthetic heightmaps, and the heuristic in the sim."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from pg_policy.geometry import load
+from pg_policy.heightmap import Heightmap, world_to_pixel
+from pg_policy.palette import PALETTE
+from pg_policy.policies import (
+    REGISTRY,
+    HeuristicPolicy,
+    Policy,
+    PolicyOptions,
+    UnknownPolicyError,
+    make_policy,
+    resolve_models,
+)
+
+G = load()
+BOUNDS = G.workspace.bounds
+RES = G.heightmap.resolution
+
+
+@dataclass
+class _Obs:
+    heightmap: Heightmap
+    target: str = "green"
+
+
+def _scene(blocks: list[tuple[float, float, float, float, str]]) -> _Obs:
+    """Axis-aligned boxes (x, y, size_x, size_y, colour) 0.045 m tall on an empty table."""
+    n = G.heightmap.rows
+    color = np.full((n, n, 3), (199, 178, 148), np.uint8)
+    height = np.zeros((n, n), np.float32)
+    for x, y, sx, sy, name in blocks:
+        r0, c0 = world_to_pixel(x - sx / 2, y - sy / 2, BOUNDS, RES)
+        r1, c1 = world_to_pixel(x + sx / 2, y + sy / 2, BOUNDS, RES)
+        height[r0:r1, c0:c1] = 0.045
+        color[r0:r1, c0:c1] = PALETTE[name]
+    return _Obs(Heightmap(color, height, np.ones((n, n), bool), RES, BOUNDS))
+
+
+CUBE = 0.045
+
+
+def test_registry_and_errors(tmp_path):
+    assert set(REGISTRY) == {"random", "heuristic", "grasp-only", "learned"}
+    with pytest.raises(UnknownPolicyError, match="random, heuristic, grasp-only, learned"):
+        make_policy("greedy")
+    with pytest.raises(FileNotFoundError, match="needs a model"):
+        make_policy("learned")
+    (tmp_path / "grasp.pt").write_bytes(b"")
+    with pytest.raises(FileNotFoundError, match="push.pt"):
+        resolve_models([tmp_path], need_push=True)
+    assert resolve_models([tmp_path], need_push=False) == (tmp_path / "grasp.pt", None)
+    with pytest.raises(FileNotFoundError, match="not found"):
+        resolve_models([tmp_path / "grasp.pt", tmp_path / "push.pt"], need_push=True)
+    assert isinstance(make_policy("heuristic"), Policy) and make_policy("random").q_maps() == {}
+
+
+def test_random_policy_is_seeded_and_target_centred():
+    obs = _scene([(0.05, -0.03, CUBE, CUBE, "green"), (-0.1, 0.1, CUBE, CUBE, "blue")])
+    pol = make_policy("random", PolicyOptions(seed=1))
+    runs = []
+    for _ in range(2):
+        pol.reset(42)
+        runs.append([pol.act(obs) for _ in range(20)])
+    assert runs[0] == runs[1]
+    assert {d.primitive for d in runs[0]} == {"grasp", "push"}
+    for d in runs[0]:
+        assert abs(d.x - 0.05) < CUBE / 2 + 0.025 and abs(d.y + 0.03) < CUBE / 2 + 0.025
+        assert d.yaw == pytest.approx(d.rotation * math.pi / 8)
+
+
+def _heuristic(obs):
+    pol = make_policy("heuristic")
+    pol.reset(0)
+    return pol.act(obs)
+
+
+def test_heuristic_grasps_an_isolated_target_at_its_centre():
+    d = _heuristic(_scene([(0.03, 0.02, CUBE, CUBE, "green"), (-0.12, -0.1, CUBE, 0.09, "blue")]))
+    assert d.primitive == "grasp" and abs(d.x - 0.03) < 0.004 and abs(d.y - 0.02) < 0.004
+    assert d.z == pytest.approx(G.primitives.grasp_min_z)
+
+
+def test_heuristic_grasps_across_the_free_axis():
+    # neighbours touch the target on -x and +x: the fingers must close along y (yaw 90 deg)
+    d = _heuristic(_scene([(0.0, 0.0, CUBE, CUBE, "green"), (-CUBE, 0.0, CUBE, CUBE, "blue"),
+                           (CUBE, 0.0, CUBE, CUBE, "red")]))
+    assert d.primitive == "grasp" and d.rotation % 8 == 4
+
+
+def test_heuristic_pushes_a_boxed_in_target_into_free_space():
+    blocks = [(0.0, 0.0, CUBE, CUBE, "green")] + [
+        (dx * CUBE, dy * CUBE, CUBE, CUBE, "blue") for dx in (-1, 0, 1) for dy in (-1, 0, 1) if dx or dy]
+    blocks += [(-0.12, dy, CUBE, CUBE, "red") for dy in (-0.1, -0.05, 0.0, 0.05, 0.1)]  # a wall on the -x side
+    obs = _scene(blocks)
+    pol = make_policy("heuristic")
+    pol.reset(0)
+    d = pol.act(obs)
+    assert d.primitive == "push"
+    assert math.cos(d.yaw) > 0.3  # away from the wall
+    assert isinstance(pol, HeuristicPolicy) and "push target out" in pol.last_action.why
+
+
+def test_heuristic_does_not_repeat_a_failed_grasp():
+    obs = _scene([(0.0, 0.0, CUBE, CUBE, "green"), (-CUBE, 0.0, CUBE, CUBE, "blue"), (CUBE, 0.0, CUBE, CUBE, "red")])
+    pol = make_policy("heuristic")
+    pol.reset(0)
+    first, second = pol.act(obs), pol.act(obs)  # a second act() on the same scene: the first grasp failed
+    assert first.primitive == "grasp" and (second.primitive, second.rotation % 8) != ("grasp", first.rotation % 8)
+
+
+def test_heuristic_grasps_an_isolated_target_in_the_sim():
+    from pg_policy.sim_env import SimEnv
+    from pg_sim.colors import resolve_color
+    from pg_sim.scene import ObjectSpec, SceneSpec
+
+    objs = (ObjectSpec("cube", None, resolve_color("green"), (0.04, -0.03, 0.0226, 0, 0, 0.4), target=True,
+                       name="target"),
+            ObjectSpec("rect", None, resolve_color("blue"), (-0.1, 0.1, 0.0226, 0, 0, 1.0), name="other"))
+    with SimEnv() as env:
+        obs = env.reset(SceneSpec("isolated", "green", objs, "test"))
+        pol = make_policy("heuristic")
+        pol.reset(0)
+        d = pol.act(obs)
+        assert d.primitive == "grasp"
+        res = env.step(d.primitive, d.x, d.y, d.z, d.yaw)
+        assert res.target_grasped, res.message
