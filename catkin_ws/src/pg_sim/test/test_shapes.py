@@ -10,7 +10,7 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from pg_sim import shapes
+from pg_sim import meshes, shapes
 from pg_sim.colors import COLORS, PALETTE, color_name, nearest_color_name, resolve_color
 from pg_sim.objects import object_pose, spawn_object
 from pg_sim.scene import ObjectSpec
@@ -177,8 +177,8 @@ def _write_prism_obj(path: Path, poly: list[tuple[float, float]], h: float, tris
 def test_mesh_shape_convex_loads_directly_concave_is_decomposed_once(client: int, tmp_path: Path) -> None:
     box = tmp_path / "box.obj"
     _write_prism_obj(box, [(0, 0), (0.04, 0), (0.04, 0.02), (0, 0.02)], 0.01, [(0, 1, 2), (0, 2, 3)])
-    mesh = shapes.load_obj(box)
-    assert shapes.mesh_volume(mesh) == pytest.approx(0.04 * 0.02 * 0.02) and shapes.is_convex(mesh)
+    mesh = meshes.load_obj(box)
+    assert meshes.mesh_volume(mesh) == pytest.approx(0.04 * 0.02 * 0.02) and meshes.is_convex(mesh)
     body = spawn_object(client, ObjectSpec("mesh", None, (1, 2, 3), (0, 0.5, 0, 0, 0, 0), str(box), scale=(2, 2, 2)))
     lo, hi = p.getAABB(body, physicsClientId=client)
     pad = 4 * shapes.HULL_MARGIN  # meshes are used as given: Bullet adds its margin, the AABB twice that per side
@@ -187,7 +187,7 @@ def test_mesh_shape_convex_loads_directly_concave_is_decomposed_once(client: int
     ell = tmp_path / "ell.obj"  # L-shaped prism: 3/4 of its hull area
     poly = [(0, 0), (0.06, 0), (0.06, 0.03), (0.03, 0.03), (0.03, 0.06), (0, 0.06)]
     _write_prism_obj(ell, poly, 0.015, [(3, 4, 5), (3, 5, 0), (3, 0, 1), (3, 1, 2)])
-    assert not shapes.is_convex(shapes.load_obj(ell))
+    assert not meshes.is_convex(meshes.load_obj(ell))
     body = spawn_object(client, ObjectSpec("mesh", None, (1, 2, 3), (0, 0, 0, 0, 0, 0), str(ell)))
     assert len(p.getCollisionShapeData(body, -1, physicsClientId=client)) > 1
     cached = list(shapes.cache_dir("vhacd").glob("*.obj"))

@@ -112,7 +112,7 @@ class Trainer:
         opt.zero_grad()
         loss.backward()
         opt.step()
-        return float(loss), float(abs(q[0].item() - label))
+        return float(loss.detach()), float(abs(q[0].detach().item() - label))
 
     # -- acting ------------------------------------------------------------------------------------------------
     def _goal(self, obs) -> tuple[np.ndarray, str | None]:
@@ -135,7 +135,7 @@ class Trainer:
         self.episode += 1
         kind, n = self.cfg.scene.split("-")
         seed = (self.cfg.seed * 100_003 + self.episode) % 1_000_000
-        obs = self.env.reset(f"{kind}-{n}", seed=seed)
+        self.env.reset(f"{kind}-{n}", seed=seed)
         self._pick_target()
         self.ep_ = {"actions": 0, "failed": 0, "pushes": 0}
         return self.env.observe()

@@ -12,8 +12,9 @@ from dataclasses import dataclass
 import pybullet as p
 
 from pg_sim.colors import rgba
+from pg_sim.meshes import build_mesh
 from pg_sim.scene import ObjectSpec, Pose, SceneSpec
-from pg_sim.shapes import build_mesh, get_builder
+from pg_sim.shapes import get_builder
 
 
 @dataclass(frozen=True)

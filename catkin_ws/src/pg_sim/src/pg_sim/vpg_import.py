@@ -32,8 +32,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from pg_sim.colors import color_name, nearest_color_name, resolve_color
+from pg_sim.meshes import mesh_extents
 from pg_sim.scene import ObjectSpec, SceneError, SceneSpec, save_scene
-from pg_sim.shapes import REGISTRY, mesh_extents
+from pg_sim.shapes import REGISTRY
 
 BLOCK_MESHES: dict[str, str] = {
     "cube": "cube",

@@ -1,0 +1,219 @@
+"""Decision latency: heightmap + target mask in -> decision out (both nets, all rotations, masked argmax, rule).
+
+Modes (all with the same weights and the same heightmaps):
+- ``vpg-loop``: VPG-style reference: one rotation at a time, batch 1 (both nets per rotation, as VPG's forward).
+- ``batched``: ours: all rotations in one pass per net, rotated inputs shared by both nets. The reference decision.
+- ``early-grasp``: grasp net first; the push net runs only when the masked max Q_g does not exceed the threshold.
+  Same decision as ``batched`` by construction; its latency is the time of the path taken on each heightmap.
+- ``window``: both nets on a crop around the target (its bounding box grown by `margin_m`, which must cover the push
+  region); decisions mapped back to full-map cells. Approximate: context outside the crop is lost.
+- ``window+early``: both speed-ups.
+Each mode is timed over `runs` calls (after one warm-up call) cycling through the heightmaps of the shipped scenes
+(ground-truth target masks); agreement = % of heightmaps whose decision (primitive, rotation, row, col) equals
+``batched``'s. The decision rule is `pg_policy.decision.decide`.
+"""
+
+from __future__ import annotations
+
+import statistics
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+from pg_policy.decision import Decision, decide, grasp_region, masked_max
+from pg_policy.geometry import PrimitiveSpec, load
+from pg_policy.heightmap import Heightmap
+from pg_policy.inference import PolicyNets, Window, target_window
+
+VARIANTS = ("lite", "densenet121")
+REFERENCE = "batched"
+BASELINE = "vpg-loop"
+
+
+@dataclass(frozen=True)
+class Case:
+    """One benchmark input: a scene's heightmap and its ground-truth (H, W) bool target mask."""
+
+    name: str
+    heightmap: Heightmap
+    target: np.ndarray
+
+
+def scene_cases(scenes: Sequence[str] | None = None) -> list[Case]:
+    """Settled shipped scenes (default: all of `pg_sim.scene.list_scenes()`) -> cases with ground-truth masks.
+
+    Raises ValueError for an unknown scene or a scene whose target is not visible in the heightmap."""
+    from pg_sim.scene import list_scenes
+    from pg_sim.scene_source import make_world_with_scene
+
+    cases = []
+    for name in scenes or list_scenes():
+        with make_world_with_scene(name) as world:
+            obs = world.observe()
+            target = world.label_heightmap(obs.frame) == world.target_id
+        if not target.any():
+            raise ValueError(f"scene {name}: the target is not visible in the heightmap")
+        cases.append(Case(name, obs.heightmap, target))
+    return cases
+
+
+def crop_heightmap(hm: Heightmap, window: Window) -> Heightmap:
+    """The heightmap cells of `window` (row0, row1, col0, col1) with bounds shifted to match (same resolution)."""
+    r0, r1, c0, c1 = window
+    bounds = np.array(hm.bounds, dtype=np.float64)
+    bounds[0] = [bounds[0, 0] + c0 * hm.resolution, bounds[0, 0] + c1 * hm.resolution]
+    bounds[1] = [bounds[1, 0] + r0 * hm.resolution, bounds[1, 0] + r1 * hm.resolution]
+    return Heightmap(hm.color[r0:r1, c0:c1], hm.height[r0:r1, c0:c1], hm.valid[r0:r1, c0:c1], hm.resolution,
+                     bounds)
+
+
+@dataclass
+class Decider:
+    """Decision of each mode for one pair of nets; `threshold` is the grasp threshold on the masked max Q_g."""
+
+    nets: PolicyNets
+    prims: PrimitiveSpec
+    threshold: float = 1.8
+    margin_m: float = 0.08
+    early_fired: int = field(default=0, init=False)
+
+    def _rule(self, hm: Heightmap, target: np.ndarray, q: dict[str, np.ndarray]) -> Decision:
+        return decide(q["grasp"], q.get("push", q["grasp"]), target, hm, self.prims, self.threshold)
+
+    def batched(self, hm: Heightmap, target: np.ndarray) -> Decision:
+        return self._rule(hm, target, self.nets.q_maps(hm, target))
+
+    def vpg_loop(self, hm: Heightmap, target: np.ndarray) -> Decision:
+        per_rot = [self.nets.q_maps(hm, target, rotations=[r]) for r in range(self.nets.num_rotations)]
+        q = {role: np.concatenate([m[role] for m in per_rot], 0) for role in ("grasp", "push")}
+        return self._rule(hm, target, q)
+
+    def early(self, hm: Heightmap, target: np.ndarray) -> Decision:
+        q = self.nets.q_maps(hm, target, nets=("grasp",))
+        if masked_max(q["grasp"], grasp_region(target, hm.resolution) & hm.valid) > self.threshold:
+            self.early_fired += 1
+            return self._rule(hm, target, q)
+        q.update(self.nets.q_maps(hm, target, nets=("push",)))
+        return self._rule(hm, target, q)
+
+    def window(self, hm: Heightmap, target: np.ndarray, early: bool = False) -> Decision:
+        win = target_window(target, int(round(self.margin_m / hm.resolution)))
+        if win is None:
+            raise ValueError("window mode needs a non-empty target mask")
+        r0, _, c0, _ = win
+        sub_hm = crop_heightmap(hm, win)
+        sub_target = target[win[0]:win[1], win[2]:win[3]]
+        d = (self.early if early else self.batched)(sub_hm, sub_target)
+        return Decision(d.primitive, d.rotation, d.row + r0, d.col + c0, d.q, d.yaw, d.x, d.y, d.z, d.grasp_q)
+
+
+MODES: dict[str, Callable[[Decider, Heightmap, np.ndarray], Decision]] = {
+    "vpg-loop": Decider.vpg_loop,
+    "batched": Decider.batched,
+    "early-grasp": Decider.early,
+    "window": Decider.window,
+    "window+early": lambda d, hm, t: d.window(hm, t, early=True),
+}
+
+
+@dataclass(frozen=True)
+class Row:
+    variant: str
+    mode: str
+    median_ms: float
+    speedup: float  # baseline median / this median
+    agree: int  # heightmaps whose decision equals the reference's
+    cases: int
+    note: str = ""
+
+
+@dataclass
+class BenchResult:
+    rows: list[Row]
+    runs: int
+    threads: int
+    cases: list[str]
+    threshold: float
+
+    def report(self) -> str:
+        """A readable table (variant, mode, median ms, speed-up vs the VPG loop, decision agreement %)."""
+        head = f"{'variant':12s} {'mode':13s} {'median ms':>10s} {'vs vpg-loop':>11s} {'agreement':>15s}  note"
+        lines = [f"decision latency: {self.runs} runs, {self.threads} torch threads, torch {torch.__version__}, "
+                 f"grasp threshold {self.threshold}, heightmaps: {len(self.cases)} shipped scenes", head,
+                 "-" * len(head)]
+        for r in self.rows:
+            agree = f"{100.0 * r.agree / r.cases:5.1f}% ({r.agree}/{r.cases})" if r.cases else "-"
+            lines.append(f"{r.variant:12s} {r.mode:13s} {r.median_ms:10.1f} {r.speedup:10.2f}x {agree:>15s}  "
+                         f"{r.note}".rstrip())
+        return "\n".join(lines)
+
+
+def _key(d: Decision) -> tuple[str, int, int, int]:
+    return d.primitive, d.rotation, d.row, d.col
+
+
+def bench_variant(variant: str, cases: Sequence[Case], runs: int, modes: Sequence[str] = tuple(MODES),
+                  threshold: float = 1.8, margin_m: float = 0.08, seed: int = 0, goal: str = "mask",
+                  log: Callable[[str], None] = lambda s: None) -> list[Row]:
+    """Time and compare every mode for one backbone with random weights (seeded); rows in `modes` order.
+
+    Each mode: one warm-up call, then `runs` timed calls cycling through `cases` (extra untimed calls cover cases
+    not reached when runs < len(cases)). Raises ValueError for an unknown mode or no cases."""
+    unknown = [m for m in modes if m not in MODES]
+    if unknown or not cases:
+        raise ValueError(f"unknown modes {unknown} (known: {list(MODES)})" if unknown else "no heightmaps to run on")
+    decider = Decider(PolicyNets.random(variant, goal, seed=seed), load().primitives, threshold, margin_m)
+    times: dict[str, list[float]] = {}
+    decisions: dict[str, dict[str, tuple]] = {}
+    fired: dict[str, int] = {}
+    for mode in [REFERENCE] + [m for m in modes if m != REFERENCE]:
+        fn = MODES[mode]
+        fn(decider, cases[0].heightmap, cases[0].target)  # warm-up (allocator, oneDNN primitives)
+        decider.early_fired = 0
+        times[mode], decisions[mode] = [], {}
+        for i in range(max(runs, len(cases))):
+            case = cases[i % len(cases)]
+            t0 = time.perf_counter()
+            d = fn(decider, case.heightmap, case.target)
+            dt = time.perf_counter() - t0
+            if i < runs:
+                times[mode].append(dt * 1000.0)
+            decisions[mode].setdefault(case.name, _key(d))
+        fired[mode] = decider.early_fired
+        log(f"{variant} {mode}: median {statistics.median(times[mode]):.1f} ms")
+    base = statistics.median(times[BASELINE]) if BASELINE in times else float("nan")
+    rows = []
+    for mode in modes:
+        med = statistics.median(times[mode])
+        agree = sum(decisions[mode][c.name] == decisions[REFERENCE][c.name] for c in cases)
+        note = f"early grasp fired {fired[mode]}/{max(runs, len(cases))} calls" if "early" in mode else ""
+        rows.append(Row(variant, mode, med, base / med, agree, len(cases), note))
+    return rows
+
+
+def run(variants: Sequence[str] = VARIANTS, runs: int = 20, threads: int = 2, scenes: Sequence[str] | None = None,
+        modes: Sequence[str] = tuple(MODES), threshold: float = 1.8, margin_m: float = 0.08, seed: int = 0,
+        goal: str = "mask", verbose: bool = True) -> BenchResult:
+    """The whole benchmark; sets torch.set_num_threads(threads). Raises ValueError for unknown variants/modes."""
+    from pg_policy.nets.registry import BACKBONES
+
+    bad = [v for v in variants if v not in BACKBONES]
+    if bad:
+        raise ValueError(f"unknown variants {bad}; known: {sorted(BACKBONES)}")
+    if runs < 1 or threads < 1:
+        raise ValueError("runs and threads must be >= 1")
+    torch.set_num_threads(threads)
+    cases = scene_cases(scenes)
+
+    def log(s: str) -> None:
+        if verbose:
+            print(s, file=sys.stderr, flush=True)
+
+    rows: list[Row] = []
+    for variant in variants:
+        rows += bench_variant(variant, cases, runs, modes, threshold, margin_m, seed, goal, log)
+    return BenchResult(rows, runs, threads, [c.name for c in cases], threshold)
