@@ -5,8 +5,10 @@ Modes (all with the same weights and the same heightmaps):
 - ``batched``: ours: all rotations in one pass per net, rotated inputs shared by both nets. The reference decision.
 - ``early-grasp``: grasp net first; the push net runs only when the masked max Q_g does not exceed the threshold.
   Same decision as ``batched`` by construction; its latency is the time of the path taken on each heightmap.
-- ``window``: both nets on a crop around the target (its bounding box grown by `margin_m`, which must cover the push
-  region); decisions mapped back to full-map cells. Approximate: context outside the crop is lost.
+- ``window``: Q maps only of the push region's bounding box (target grown by the push radius), computed from crops
+  of the rotated canvases (stride-aligned, + `margin` px of context) so the trunks see what they see in the full map
+  there. With the backbone's exact margin (lite: 88 px) the maps equal the full maps (identical decisions);
+  DenseNet-121's receptive field (2071 px) exceeds the map, so its window (default margin 0.1 m) is approximate.
 - ``window+early``: both speed-ups.
 Each mode is timed over `runs` calls (after one warm-up call) cycling through the heightmaps of the shipped scenes
 (ground-truth target masks); agreement = % of heightmaps whose decision (primitive, rotation, row, col) equals
@@ -24,12 +26,14 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
-from pg_policy.decision import Decision, decide, grasp_region, masked_max
+from pg_policy.decision import PUSH_RADIUS_M, Decision, decide, grasp_region, masked_max
 from pg_policy.geometry import PrimitiveSpec, load
 from pg_policy.heightmap import Heightmap
 from pg_policy.inference import PolicyNets, Window, target_window
+from pg_policy.target_mask import radius_cells
 
 VARIANTS = ("lite", "densenet121")
+APPROX_MARGIN_M = 0.1  # window context for backbones without an exact margin
 REFERENCE = "batched"
 BASELINE = "vpg-loop"
 
@@ -78,7 +82,7 @@ class Decider:
     nets: PolicyNets
     prims: PrimitiveSpec
     threshold: float = 1.8
-    margin_m: float = 0.08
+    margin: int | None = None  # window context (px); None: the nets' exact margin
     early_fired: int = field(default=0, init=False)
 
     def _rule(self, hm: Heightmap, target: np.ndarray, q: dict[str, np.ndarray]) -> Decision:
@@ -101,13 +105,22 @@ class Decider:
         return self._rule(hm, target, q)
 
     def window(self, hm: Heightmap, target: np.ndarray, early: bool = False) -> Decision:
-        win = target_window(target, int(round(self.margin_m / hm.resolution)))
+        """Q maps only on the push region's bounding box (target + push radius), decided there, mapped back."""
+        win = target_window(target, radius_cells(PUSH_RADIUS_M, hm.resolution))
         if win is None:
             raise ValueError("window mode needs a non-empty target mask")
-        r0, _, c0, _ = win
-        sub_hm = crop_heightmap(hm, win)
-        sub_target = target[win[0]:win[1], win[2]:win[3]]
-        d = (self.early if early else self.batched)(sub_hm, sub_target)
+        r0, r1, c0, c1 = win
+        sub_hm, sub_target = crop_heightmap(hm, win), target[r0:r1, c0:c1]
+
+        def maps(roles: tuple[str, ...]) -> dict[str, np.ndarray]:
+            return self.nets.q_maps(hm, target, nets=roles, window=win, margin=self.margin)
+
+        q = maps(("grasp",) if early else ("grasp", "push"))
+        if early and masked_max(q["grasp"], grasp_region(sub_target, hm.resolution) & sub_hm.valid) > self.threshold:
+            self.early_fired += 1
+        elif early:
+            q.update(maps(("push",)))
+        d = self._rule(sub_hm, sub_target, q)
         return Decision(d.primitive, d.rotation, d.row + r0, d.col + c0, d.q, d.yaw, d.x, d.y, d.z, d.grasp_q)
 
 
@@ -157,16 +170,23 @@ def _key(d: Decision) -> tuple[str, int, int, int]:
 
 
 def bench_variant(variant: str, cases: Sequence[Case], runs: int, modes: Sequence[str] = tuple(MODES),
-                  threshold: float = 1.8, margin_m: float = 0.08, seed: int = 0, goal: str = "mask",
+                  threshold: float = 1.8, margin_m: float | None = None, seed: int = 0, goal: str = "mask",
                   log: Callable[[str], None] = lambda s: None) -> list[Row]:
     """Time and compare every mode for one backbone with random weights (seeded); rows in `modes` order.
 
     Each mode: one warm-up call, then `runs` timed calls cycling through `cases` (extra untimed calls cover cases
-    not reached when runs < len(cases)). Raises ValueError for an unknown mode or no cases."""
+    not reached when runs < len(cases)). margin_m: window context (m); None = the backbone's exact margin, else
+    APPROX_MARGIN_M. Raises ValueError for an unknown mode or no cases."""
     unknown = [m for m in modes if m not in MODES]
     if unknown or not cases:
         raise ValueError(f"unknown modes {unknown} (known: {list(MODES)})" if unknown else "no heightmaps to run on")
-    decider = Decider(PolicyNets.random(variant, goal, seed=seed), load().primitives, threshold, margin_m)
+    nets = PolicyNets.random(variant, goal, seed=seed)
+    res = cases[0].heightmap.resolution
+    exact = nets.exact_margin()
+    margin = int(round(margin_m / res)) if margin_m is not None else exact if exact >= 0 else int(
+        round(APPROX_MARGIN_M / res))
+    win_note = f"margin {margin} px, " + ("exact" if 0 <= exact <= margin else "approximate")
+    decider = Decider(nets, load().primitives, threshold, margin)
     times: dict[str, list[float]] = {}
     decisions: dict[str, dict[str, tuple]] = {}
     fired: dict[str, int] = {}
@@ -190,13 +210,16 @@ def bench_variant(variant: str, cases: Sequence[Case], runs: int, modes: Sequenc
     for mode in modes:
         med = statistics.median(times[mode])
         agree = sum(decisions[mode][c.name] == decisions[REFERENCE][c.name] for c in cases)
-        note = f"early grasp fired {fired[mode]}/{max(runs, len(cases))} calls" if "early" in mode else ""
+        notes = [win_note] if "window" in mode else []
+        if "early" in mode:
+            notes.append(f"early grasp on {fired[mode]}/{max(runs, len(cases))} calls")
+        note = "; ".join(notes)
         rows.append(Row(variant, mode, med, base / med, agree, len(cases), note))
     return rows
 
 
 def run(variants: Sequence[str] = VARIANTS, runs: int = 20, threads: int = 2, scenes: Sequence[str] | None = None,
-        modes: Sequence[str] = tuple(MODES), threshold: float = 1.8, margin_m: float = 0.08, seed: int = 0,
+        modes: Sequence[str] = tuple(MODES), threshold: float = 1.8, margin_m: float | None = None, seed: int = 0,
         goal: str = "mask", verbose: bool = True) -> BenchResult:
     """The whole benchmark; sets torch.set_num_threads(threads). Raises ValueError for unknown variants/modes."""
     from pg_policy.nets.registry import BACKBONES

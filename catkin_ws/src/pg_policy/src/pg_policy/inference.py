@@ -22,42 +22,28 @@ ROLES = ("grasp", "push")
 Window = tuple[int, int, int, int]  # (row0, row1, col0, col1), half-open, heightmap cells
 
 
-def heightmap_tensors(heightmap: Heightmap, mask: np.ndarray, window: Window | None = None,
+def heightmap_tensors(heightmap: Heightmap, mask: np.ndarray,
                       device: str | torch.device = "cpu") -> tuple[Tensor, Tensor, Tensor]:
-    """Net inputs from a heightmap: colour (1, 3, h, w) float32 in [0, 1], depth (1, 1, h, w) float32 metres,
-    mask (1, 1, h, w) float32 {0, 1}; cropped to `window` if given. Raises ValueError for a mask of the wrong shape."""
+    """Net inputs from a heightmap: colour (1, 3, H, W) float32 in [0, 1], depth (1, 1, H, W) float32 metres,
+    mask (1, 1, H, W) float32 {0, 1}. Raises ValueError for a mask of the wrong shape."""
     mask = np.asarray(mask)
     if mask.shape != heightmap.height.shape:
         raise ValueError(f"mask shape {mask.shape} != heightmap shape {heightmap.height.shape}")
-    color, height = heightmap.color, heightmap.height
-    if window is not None:
-        r0, r1, c0, c1 = window
-        if not (0 <= r0 < r1 <= height.shape[0] and 0 <= c0 < c1 <= height.shape[1]):
-            raise ValueError(f"window {window} outside the heightmap {height.shape}")
-        color, height, mask = color[r0:r1, c0:c1], height[r0:r1, c0:c1], mask[r0:r1, c0:c1]
-    c = torch.from_numpy(np.ascontiguousarray(color)).to(device).permute(2, 0, 1).unsqueeze(0).float() / 255.0
-    d = torch.from_numpy(np.ascontiguousarray(height, dtype=np.float32)).to(device)[None, None]
+    c = torch.from_numpy(np.ascontiguousarray(heightmap.color)).to(device).permute(2, 0, 1).unsqueeze(0).float()
+    d = torch.from_numpy(np.ascontiguousarray(heightmap.height, dtype=np.float32)).to(device)[None, None]
     m = torch.from_numpy(np.ascontiguousarray(mask, dtype=np.float32)).to(device)[None, None]
-    return c, d, m
+    return c / 255.0, d, m
 
 
-def target_window(mask: np.ndarray, margin: int, multiple: int = 16, min_size: int = 64) -> Window | None:
-    """Square-ish window (row0, row1, col0, col1) around the True cells of `mask` (H, W) grown by `margin` cells,
-    sides rounded up to `multiple` and at least `min_size`, shifted/clipped to the map. None if the mask is empty."""
+def target_window(mask: np.ndarray, margin: int) -> Window | None:
+    """(row0, row1, col0, col1), half-open: the bounding box of the True cells of (H, W) `mask` grown by `margin`
+    cells and clipped to the map; None if the mask is empty."""
     rows, cols = np.nonzero(mask)
     if rows.size == 0:
         return None
     h, w = mask.shape
-
-    def span(lo: int, hi: int, size: int) -> tuple[int, int]:
-        n = max(hi - lo + 1 + 2 * margin, min_size)
-        n = min(-(-n // multiple) * multiple, size)
-        start = min(max((lo + hi + 1 - n) // 2, 0), size - n)
-        return start, start + n
-
-    r0, r1 = span(int(rows.min()), int(rows.max()), h)
-    c0, c1 = span(int(cols.min()), int(cols.max()), w)
-    return r0, r1, c0, c1
+    return (max(int(rows.min()) - margin, 0), min(int(rows.max()) + 1 + margin, h),
+            max(int(cols.min()) - margin, 0), min(int(cols.max()) + 1 + margin, w))
 
 
 class PolicyNets:
@@ -96,29 +82,48 @@ class PolicyNets:
         cfg = QNetConfig(backbone=backbone, goal=goal, rotations=rotations)
         return cls(build_qnet(cfg, seed=seed), build_qnet(cfg, seed=seed + 1))
 
-    def q_maps(self, heightmap: Heightmap, mask: np.ndarray, rotations: Sequence[int] | None = None,
-               nets: Sequence[str] = ROLES, window: Window | None = None) -> dict[str, np.ndarray]:
-        """{role: Q (R, h, w) float32} for each role in `nets`, R = len(rotations) (default all, in index order).
+    def exact_margin(self) -> int:
+        """Smallest window margin (px) for which window maps equal the full maps; -1 if none exists (DenseNet)."""
+        margins = [int(net.exact_margin) for net in self.nets.values()]
+        return -1 if min(margins) < 0 else max(margins)
 
-        mask: (H, W) bool/{0, 1} goal mask (an input of "mask" nets only). window: compute on that crop only; the
-        maps are then (R, row1 - row0, col1 - col0) with [0, 0] at (row0, col0). The rotated input canvases are
-        computed once and shared by nets with the same goal variant. Raises ValueError for unknown roles or shapes.
+    def q_maps(self, heightmap: Heightmap, mask: np.ndarray, rotations: Sequence[int] | None = None,
+               nets: Sequence[str] = ROLES, window: Window | None = None,
+               margin: int | None = None) -> dict[str, np.ndarray]:
+        """{role: Q (R, H, W) float32} for each role in `nets`, R = len(rotations) (default all, in index order).
+
+        mask: (H, W) bool/{0, 1} goal mask (an input of "mask" nets only). window (row0, row1, col0, col1): compute
+        only those cells, from crops of the rotated canvases holding the window plus `margin` px of context
+        (default `exact_margin()`, which makes them equal to the full maps; required when that is -1); the maps are
+        then (R, row1 - row0, col1 - col0) with [0, 0] at (row0, col0). The rotated inputs are computed once and
+        shared by nets with the same goal variant. Raises ValueError for unknown roles, shapes or windows.
         """
         unknown = [n for n in nets if n not in self.nets]
         if unknown:
             raise ValueError(f"unknown nets {unknown}; known: {list(self.nets)}")
         rots = list(range(self.num_rotations)) if rotations is None else [int(r) for r in rotations]
-        c, d, m = heightmap_tensors(heightmap, mask, window, self.device)
+        c, d, m = heightmap_tensors(heightmap, mask, self.device)
         h, w = d.shape[2], d.shape[3]
+        if window is not None:
+            window = [int(v) for v in window]
+            margin = self.exact_margin() if margin is None else int(margin)
+            if margin < 0:
+                raise ValueError("these nets have no exact window margin: give `margin` (px) explicitly")
         out: dict[str, np.ndarray] = {}
-        shared: dict[bool, tuple[Tensor, Tensor]] = {}
+        shared: dict[bool, tuple[Tensor, ...]] = {}
         with torch.inference_mode():
             for role in nets:
                 net = self.nets[role]
                 key = bool(net.use_mask)
-                if key not in shared:
-                    shared[key] = net.rotate_inputs(c, d, m, rots)
-                q = net.q_from_rotated(shared[key][0], shared[key][1], rots, h, w)
+                if window is None:
+                    if key not in shared:
+                        shared[key] = net.rotate_inputs(c, d, m, rots)
+                    q = net.q_from_rotated(shared[key][0], shared[key][1], rots, h, w)
+                else:
+                    if key not in shared:
+                        shared[key] = net.rotate_inputs_window(c, d, m, rots, window, margin)
+                    cr, dr, origins = shared[key]
+                    q = net.q_from_rotated_window(cr, dr, origins, rots, h, w, window)
                 out[role] = q[0].float().cpu().numpy()
         return out
 

@@ -155,12 +155,15 @@ class Trainer:
 
         cfg, hm = self.cfg, obs.heightmap
         goal, goal_color = self._goal(obs)
-        q = qtensor.q_maps(self.nets, hm, goal, ("grasp", "push") if self.stage.uses_push else ("grasp",))
-        gmax = qtensor.masked_max(q["grasp"], goal)
-        primitive = choose_primitive(self.stage, gmax, self.ep_["pushes"], cfg.grasp_threshold, cfg.max_pushes)
         eps = epsilon(self.iteration, cfg.epsilon_start, cfg.epsilon_end, cfg.epsilon_decay)
-        region = goal if primitive == "grasp" else qtensor.push_region(goal, self.geo)
         explored = bool(self.rng.random() < eps)
+        if explored and not self.stage.uses_push:  # a random grasp needs no Q maps: skip the forward pass
+            q, gmax = None, float("nan")
+        else:
+            q = qtensor.q_maps(self.nets, hm, goal, ("grasp", "push") if self.stage.uses_push else ("grasp",))
+            gmax = qtensor.masked_max(q["grasp"], goal)
+        primitive = choose_primitive(self.stage, gmax, self.ep_["pushes"], cfg.grasp_threshold, cfg.max_pushes)
+        region = goal if primitive == "grasp" else qtensor.push_region(goal, self.geo)
         if explored:
             rot, row, col = explore_action(self.rng, region, cfg.rotations)
         else:
@@ -197,7 +200,7 @@ class Trainer:
                     _, td_i = self.learn(self.replay[t.primitive].get(i))
                     self.replay[t.primitive].update_priority(i, td_i)
         row_log = {"iteration": self.iteration, "episode": self.episode, "primitive": primitive, "rotation": rot,
-                   "row": row, "col": col, "q": round(float(q[primitive][rot, row, col]), 4), "explored": int(explored),
+                   "row": row, "col": col, "q": round(float(q[primitive][rot, row, col]), 4) if q is not None else "", "explored": int(explored),
                    "reward": reward, "grasped": int(result.grasped), "success": int(success),
                    "epsilon": round(eps, 3), "loss": round(loss, 5), "sim_s": round(result.sim_time, 2)}
         return row_log, nxt

@@ -77,6 +77,7 @@ class DenseNet121Trunk(nn.Module):
 
     out_channels = 1024
     stride = 32
+    exact_margin = -1  # receptive field 2071 px: a window crop is always an approximation
 
     def __init__(self) -> None:
         super().__init__()

@@ -23,6 +23,9 @@ class LiteTrunk(nn.Module):
     """Five conv-BN-ReLU stages, total stride 16, `out_channels` = widths[-1]."""
 
     stride = 16
+    # Window crops with at least this margin (px) give the full map's Q (receptive field of an output cell:
+    # [16 j - 60, 16 j + 63] px, plus the two cells a bilinear sample reads).
+    exact_margin = 88
 
     def __init__(self, widths: tuple[int, int, int, int, int] = (16, 32, 64, 64, 128)) -> None:
         super().__init__()

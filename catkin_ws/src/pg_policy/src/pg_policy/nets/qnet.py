@@ -121,6 +121,7 @@ class QNet(nn.Module):
         self.depth_mean, self.depth_std = float(DEPTH_MEAN), float(DEPTH_STD)
         self.mask_mean, self.mask_std = float(MASK_MEAN), float(MASK_STD)
         self.num_rotations: int = int(config.rotations)
+        self.exact_margin: int = int(getattr(self.color_trunk, "exact_margin", -1))
         self.use_mask: bool = config.goal == "mask"
         self.config_json: str = json.dumps(config.to_dict(), sort_keys=True)
 
@@ -144,7 +145,7 @@ class QNet(nn.Module):
         angles = self._angles(rots, color.device).repeat(b)
         src = torch.arange(b, device=color.device).repeat_interleave(len(rots))
         c, d = self._canvases(color, depth, mask)
-        grid = self._rotation_grid(angles, c.shape[2])
+        grid = self._rotation_grid(angles, c.shape[2], self._zero_origins(angles), c.shape[2])
         return self._sample(c, src, grid), self._sample(d, src, grid)
 
     @torch.jit.export
@@ -157,7 +158,9 @@ class QNet(nn.Module):
         if n % r != 0 or color_rot.shape != depth_rot.shape or color_rot.shape[2] != canvas_size(height, width):
             raise ValueError("q_from_rotated: canvases must be (B * R, 3, P, P) from rotate_inputs, same rotations")
         angles = self._angles(rots, color_rot.device).repeat(n // r)
-        q = self._unrotate(self._q_low(color_rot, depth_rot), angles, height, width)
+        p = color_rot.shape[2]
+        q = self._unrotate(self._q_low(color_rot, depth_rot), angles, height, width, [0, height, 0, width],
+                           self._zero_origins(angles), p)
         return q.view(n // r, r, height, width)
 
     @torch.jit.export
@@ -170,9 +173,45 @@ class QNet(nn.Module):
         angles = rotation.to(torch.float64) * (2.0 * math.pi / self.num_rotations)
         src = torch.arange(color.shape[0], device=color.device)
         c, d = self._canvases(color, depth, mask)
-        grid = self._rotation_grid(angles, c.shape[2])
+        p = c.shape[2]
+        zero = self._zero_origins(angles)
+        grid = self._rotation_grid(angles, p, zero, p)
         q_low = self._q_low(self._sample(c, src, grid), self._sample(d, src, grid))
-        return self._unrotate(q_low, angles, color.shape[2], color.shape[3])
+        h, w = color.shape[2], color.shape[3]
+        return self._unrotate(q_low, angles, h, w, [0, h, 0, w], zero, p)
+
+    @torch.jit.export
+    def rotate_inputs_window(self, color: Tensor, depth: Tensor, mask: Tensor | None, rotations: list[int] | None,
+                             window: list[int], margin: int) -> tuple[Tensor, Tensor, Tensor]:
+        """Like `rotate_inputs`, but only a square crop of each rotated canvas: the crop covers the rotated `window`
+        (row0, row1, col0, col1 of the heightmap) grown by `margin` px, with corners on multiples of 32 px of the
+        canvas (so every trunk's stride grid is that of the full canvas). Returns (colour crops, depth crops) of
+        (B * R, 3, S, S) float32 and origins (R, 2) int64 (row, col of each crop in its canvas)."""
+        rots = self._rotation_list(rotations)
+        b, h, w = color.shape[0], color.shape[2], color.shape[3]
+        angles = self._angles(rots, color.device)
+        origins, side = self._crop_origins(angles, window, margin, h, w)
+        c, d = self._canvases(color, depth, mask)
+        grid = self._rotation_grid(angles, c.shape[2], origins, side).repeat(b, 1, 1, 1)
+        src = torch.arange(b, device=color.device).repeat_interleave(len(rots))
+        return self._sample(c, src, grid), self._sample(d, src, grid), origins
+
+    @torch.jit.export
+    def q_from_rotated_window(self, color_rot: Tensor, depth_rot: Tensor, origins: Tensor,
+                              rotations: list[int] | None, height: int, width: int, window: list[int]) -> Tensor:
+        """Crops from `rotate_inputs_window` -> Q (B, R, row1 - row0, col1 - col0) float32 of the window cells.
+
+        Equal to the full map's window (up to float rounding) wherever the trunk's receptive field plus one output
+        cell fits in the crop, i.e. for margin >= `exact_margin` (when that is >= 0); approximate otherwise."""
+        rots = self._rotation_list(rotations)
+        r = len(rots)
+        n = color_rot.shape[0]
+        if n % r != 0 or color_rot.shape != depth_rot.shape or origins.shape[0] != r:
+            raise ValueError("q_from_rotated_window: crops must come from rotate_inputs_window, same rotations")
+        angles = self._angles(rots, color_rot.device)
+        q = self._unrotate(self._q_low(color_rot, depth_rot), angles.repeat(n // r), height, width, window,
+                           origins.repeat(n // r, 1), color_rot.shape[2])
+        return q.view(n // r, r, window[1] - window[0], window[3] - window[2])
 
     # -- internals ------------------------------------------------------------------------------------------------
     def _rotation_list(self, rotations: list[int] | None) -> list[int]:
@@ -214,13 +253,42 @@ class QNet(nn.Module):
             third = d
         return c, torch.cat([d, d, third], 1)
 
-    def _rotation_grid(self, angles: Tensor, p: int) -> Tensor:
-        """(N, P, P, 2) grid sampling canvas point c + Rot(angle) (q - c) for every output point q."""
+    def _zero_origins(self, angles: Tensor) -> Tensor:
+        return torch.zeros(angles.shape[0], 2, dtype=torch.long, device=angles.device)
+
+    def _rotation_grid(self, angles: Tensor, p: int, origins: Tensor, side: int) -> Tensor:
+        """(N, S, S, 2) grid: output point q of crop i (canvas rows/cols origins[i] + [0, S)) samples the canvas
+        at c + Rot(angles[i]) (q - c); with zero origins and S = P the whole rotated canvas."""
         base = (2.0 * torch.arange(p, dtype=torch.float32, device=angles.device) + 1.0) / p - 1.0
-        xs, ys = base.view(1, 1, p), base.view(1, p, 1)
+        steps = torch.arange(side, device=angles.device)
+        ys = base[origins[:, 0:1] + steps].unsqueeze(2)  # (N, S, 1)
+        xs = base[origins[:, 1:2] + steps].unsqueeze(1)  # (N, 1, S)
         cos = torch.cos(angles).to(torch.float32).view(-1, 1, 1)
         sin = torch.sin(angles).to(torch.float32).view(-1, 1, 1)
         return torch.stack([cos * xs - sin * ys, sin * xs + cos * ys], -1)
+
+    def _crop_origins(self, angles: Tensor, window: list[int], margin: int, h: int, w: int) -> tuple[Tensor, int]:
+        """(R, 2) int64 crop origins (row, col; multiples of 32) and the common side S (multiple of 32, <= P)."""
+        if len(window) != 4 or not (0 <= window[0] < window[1] <= h and 0 <= window[2] < window[3] <= w):
+            raise ValueError("window must be [row0, row1, col0, col1] inside the heightmap, row0 < row1, col0 < col1")
+        if margin < 0:
+            raise ValueError("margin must be >= 0 px")
+        p = canvas_size(h, w)
+        top, left = (p - h) // 2, (p - w) // 2
+        half = p / 2.0
+        cy = torch.tensor([window[0], window[0], window[1], window[1]], dtype=torch.float64) + top - half
+        cx = torch.tensor([window[2], window[3], window[2], window[3]], dtype=torch.float64) + left - half
+        cos = torch.cos(angles).view(-1, 1).cpu()
+        sin = torch.sin(angles).view(-1, 1).cpu()
+        ry = cos * cy - sin * cx + half  # rotated-frame corners, canvas px (R, 4)
+        rx = cos * cx + sin * cy + half
+        lo = torch.stack([ry.min(1)[0], rx.min(1)[0]], 1) - margin
+        hi = torch.stack([ry.max(1)[0], rx.max(1)[0]], 1) + margin
+        lo = (torch.floor(lo / 32.0) * 32.0).clamp(0.0, float(p))
+        hi = (torch.ceil(hi / 32.0) * 32.0).clamp(0.0, float(p))
+        side = int((hi - lo).max().item())
+        origins = torch.minimum(lo, torch.full_like(lo, float(p - side))).to(torch.long)
+        return origins.to(angles.device), side
 
     def _sample(self, x: Tensor, src: Tensor, grid: Tensor) -> Tensor:
         """(B, C, P, P) canvases -> (N, C, P, P): canvas src[i] sampled on grid[i] (bilinear, border = padding)."""
@@ -231,15 +299,24 @@ class QNet(nn.Module):
         """(N, 3, P, P) x 2 normalised canvases -> (N, 1, P/s, P/s) head output."""
         return self.head(torch.cat([self.color_trunk(color_rot), self.depth_trunk(depth_rot)], 1))
 
-    def _unrotate(self, q: Tensor, angles: Tensor, h: int, w: int) -> Tensor:
-        """(N, 1, p, p) rotated-frame maps -> (N, h, w): bilinear upsampling + inverse rotation in one grid_sample."""
+    def _unrotate(self, q: Tensor, angles: Tensor, h: int, w: int, window: list[int], origins: Tensor,
+                  side: int) -> Tensor:
+        """(N, 1, S/s, S/s) head output of canvas crops (origins (N, 2), side S; the whole canvas: zero origins,
+        S = P) -> (N, rows, cols) Q of the heightmap `window` cells: bilinear upsampling and inverse rotation in one
+        grid_sample evaluated at those cells only."""
         p = canvas_size(h, w)
         top, left = (p - h) // 2, (p - w) // 2
-        ys = ((2.0 * (torch.arange(h, dtype=torch.float64, device=q.device) + top) + 1.0) / p - 1.0).view(1, h, 1)
-        xs = ((2.0 * (torch.arange(w, dtype=torch.float64, device=q.device) + left) + 1.0) / p - 1.0).view(1, 1, w)
+        rows = torch.arange(window[0], window[1], dtype=torch.float64, device=q.device)
+        cols = torch.arange(window[2], window[3], dtype=torch.float64, device=q.device)
+        ys = ((2.0 * (rows + top) + 1.0) / p - 1.0).view(1, -1, 1)
+        xs = ((2.0 * (cols + left) + 1.0) / p - 1.0).view(1, 1, -1)
         cos, sin = torch.cos(angles).view(-1, 1, 1), torch.sin(angles).view(-1, 1, 1)
-        grid = torch.stack([cos * xs + sin * ys, cos * ys - sin * xs], -1).to(q.dtype)
+        o = origins.to(torch.float64)
+        gx = (cos * xs + sin * ys + 1.0) * (p / side) - 1.0 - 2.0 * o[:, 1].view(-1, 1, 1) / side
+        gy = (cos * ys - sin * xs + 1.0) * (p / side) - 1.0 - 2.0 * o[:, 0].view(-1, 1, 1) / side
+        grid = torch.stack([gx, gy], -1).to(q.dtype)
         return F.grid_sample(q, grid, mode="bilinear", padding_mode="border", align_corners=False)[:, 0]
+
 
 def build_qnet(config: QNetConfig, seed: int | None = None) -> QNet:
     """A fresh QNet in eval mode; `seed` makes the random initialisation reproducible (torch's global RNG)."""

@@ -1,0 +1,42 @@
+"""`pushgrasp bench`: decision latency of each net variant next to a VPG-style loop, with decision agreement.
+
+Heavy modules (torch, pybullet) are imported inside the handler.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+
+def _csv(text: str) -> list[str]:
+    return [t.strip() for t in text.split(",") if t.strip()]
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("bench", help="decision latency (heightmap -> decision) per variant vs a VPG-style loop")
+    p.add_argument("--variants", type=_csv, default=["lite", "densenet121"],
+                   help="comma-separated backbones (default lite,densenet121)")
+    p.add_argument("--modes", type=_csv, default=None,
+                   help="comma-separated modes (default all: vpg-loop,batched,early-grasp,window,window+early)")
+    p.add_argument("--runs", type=int, default=20, help="timed decisions per mode (median reported, default 20)")
+    p.add_argument("--threads", type=int, default=2, help="torch CPU threads (default 2)")
+    p.add_argument("--scenes", type=_csv, default=None,
+                   help="comma-separated shipped scenes for the inputs (default: all, see `pushgrasp scene list`)")
+    p.add_argument("--threshold", type=float, default=1.8, help="grasp threshold on the masked max Q_g (default 1.8)")
+    p.add_argument("--window-margin", type=float, default=None,
+                   help="window modes: context (m) around the push region; default: the backbone's exact margin "
+                        "(lite), else 0.1")
+    p.add_argument("--goal", choices=("none", "mask"), default="mask", help="net variant's goal input (default mask)")
+    p.add_argument("--seed", type=int, default=0, help="weight initialisation seed (default 0)")
+    p.add_argument("--quiet", action="store_true", help="no per-mode progress on stderr")
+    p.set_defaults(run=_run)
+
+
+def _run(args: argparse.Namespace) -> int:
+    from pg_policy.bench import MODES, run
+
+    result = run(args.variants, runs=args.runs, threads=args.threads, scenes=args.scenes,
+                 modes=args.modes or tuple(MODES), threshold=args.threshold, margin_m=args.window_margin,
+                 seed=args.seed, goal=args.goal, verbose=not args.quiet)
+    print(result.report())
+    return 0

@@ -1,0 +1,57 @@
+"""`pushgrasp export`: a training checkpoint -> one TorchScript file per net (grasp.pt, push.pt) with metadata."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+STAGE_ORDER = ("alternate", "push", "grasp-goal", "grasp-agnostic")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("export", help="export a run's checkpoint as TorchScript files with embedded metadata",
+                       description="Writes OUT/grasp.pt and OUT/push.pt; loading them needs no project source.")
+    p.add_argument("--run", dest="run_dir", type=Path, required=True, help="training run directory (the --out of `pushgrasp train`)")
+    p.add_argument("--stage", default=None, choices=STAGE_ORDER,
+                   help="stage whose last.pt to export (default: the latest stage present)")
+    p.add_argument("--out", type=Path, required=True, help="output directory for grasp.pt and push.pt")
+    p.add_argument("--threshold", type=float, default=None,
+                   help="grasp threshold on the masked max Q_g stored in the metadata (default: the run's)")
+    p.set_defaults(run=_run)
+
+
+def latest_checkpoint(run: Path, stage: str | None) -> Path:
+    """The checkpoint of `stage`, or of the most advanced stage present; FileNotFoundError names what is missing."""
+    stages = [stage] if stage else list(STAGE_ORDER)
+    for s in stages:
+        ck = Path(run) / s / "last.pt"
+        if ck.exists():
+            return ck
+    raise FileNotFoundError(f"no checkpoint for stage(s) {', '.join(stages)} under {run}")
+
+
+def export_run(run: Path, out: Path, stage: str | None = None, threshold: float | None = None) -> list[Path]:
+    import torch
+
+    from pg_policy.model_io import export_qnet
+    from pg_policy.nets.qnet import QNetConfig, build_qnet
+
+    ck_path = latest_checkpoint(run, stage)
+    ck = torch.load(ck_path, map_location="cpu", weights_only=False)
+    cfg = ck["config"]
+    qcfg = QNetConfig(backbone=cfg["backbone"], goal=cfg["goal"], rotations=int(cfg["rotations"]))
+    thr = float(threshold if threshold is not None else cfg["grasp_threshold"])
+    written = []
+    for role in ("grasp", "push"):
+        net = build_qnet(qcfg)
+        net.load_state_dict(ck["nets"][role])
+        meta = {"role": role, "stage": ck["stage"], "iteration": int(ck["iteration"]),
+                "thresholds": {"grasp_q": thr}, "source": str(ck_path)}
+        written.append(export_qnet(net, Path(out) / f"{role}.pt", meta))
+    return written
+
+
+def _run(args: argparse.Namespace) -> int:
+    for path in export_run(args.run_dir, args.out, args.stage, args.threshold):
+        print(f"wrote {path}")
+    return 0
