@@ -151,7 +151,8 @@ def test_jitter_moves_the_scene_rigidly_and_reproducibly():
         return np.linalg.norm(xy[:, None] - xy[None], axis=-1)
 
     np.testing.assert_allclose(dists(a), dists(scene), atol=1e-9)
-    dyaw = [(o2.pose[5] - o1.pose[5] + math.pi) % (2 * math.pi) - math.pi for o1, o2 in zip(scene.objects, a.objects)]
+    dyaw = [(o2.pose[5] - o1.pose[5] + math.pi) % (2 * math.pi) - math.pi
+            for o1, o2 in zip(scene.objects, a.objects, strict=True)]
     assert np.ptp(dyaw) < 1e-9 and abs(dyaw[0]) <= 0.2
 
 

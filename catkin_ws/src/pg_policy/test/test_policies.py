@@ -133,3 +133,34 @@ def test_heuristic_grasps_an_isolated_target_in_the_sim():
         assert d.primitive == "grasp"
         res = env.step(d.primitive, d.x, d.y, d.z, d.yaw)
         assert res.target_grasped, res.message
+
+
+@pytest.fixture(scope="module")
+def model_dir(tmp_path_factory):
+    from pg_policy.model_io import export_qnet
+    from pg_policy.nets import QNetConfig, build_qnet
+
+    out = tmp_path_factory.mktemp("models")
+    for i, role in enumerate(("grasp", "push")):
+        export_qnet(build_qnet(QNetConfig("lite", "none"), seed=i), out / f"{role}.pt",
+                    {"role": role, "thresholds": {"grasp_q": 1.8}})
+    return out
+
+
+def test_learned_policies_from_exported_files(model_dir):
+    obs = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (-0.1, 0.1, CUBE, CUBE, "blue")])
+    pol = make_policy(str(model_dir))  # a directory with grasp.pt and push.pt runs `learned`
+    assert pol.name == "learned" and pol.threshold == 1.8
+    d = pol.act(obs)
+    q = pol.q_maps()
+    assert q["grasp"].shape == q["push"].shape == (16, G.heightmap.rows, G.heightmap.cols)
+    assert d.primitive == ("grasp" if d.grasp_q > 1.8 else "push")
+    flip = 1e9 if d.grasp_q > 1.8 else -1e9
+    flipped = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=flip))
+    assert flipped.act(obs).primitive != d.primitive
+    g = make_policy("grasp-only", PolicyOptions(models=(model_dir / "grasp.pt",)))
+    d = g.act(obs)
+    r, c = world_to_pixel(0.03, 0.02, BOUNDS, RES)  # the grasp lies on the target
+    assert d.primitive == "grasp" and abs(d.row - r) <= 12 and abs(d.col - c) <= 12 and set(g.q_maps()) == {"grasp"}
+    with pytest.raises(ValueError, match="expected 'grasp'"):
+        make_policy("grasp-only", PolicyOptions(models=(model_dir / "push.pt",)))

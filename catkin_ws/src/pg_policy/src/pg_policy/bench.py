@@ -17,6 +17,7 @@ Each mode is timed over `runs` calls (after one warm-up call) cycling through th
 
 from __future__ import annotations
 
+import os
 import statistics
 import sys
 import time
@@ -137,8 +138,9 @@ MODES: dict[str, Callable[[Decider, Heightmap, np.ndarray], Decision]] = {
 class Row:
     variant: str
     mode: str
-    median_ms: float
-    speedup: float  # baseline median / this median
+    median_ms: float  # wall clock
+    cpu_ms: float  # median process CPU time (all threads) per decision: less sensitive to other load
+    speedup: float  # baseline median / this median (wall clock)
     agree: int  # heightmaps whose decision equals the reference's
     cases: int
     note: str = ""
@@ -154,14 +156,16 @@ class BenchResult:
 
     def report(self) -> str:
         """A readable table (variant, mode, median ms, speed-up vs the VPG loop, decision agreement %)."""
-        head = f"{'variant':12s} {'mode':13s} {'median ms':>10s} {'vs vpg-loop':>11s} {'agreement':>15s}  note"
+        head = (f"{'variant':12s} {'mode':13s} {'median ms':>10s} {'cpu ms':>8s} {'vs vpg-loop':>11s} "
+                f"{'agreement':>15s}  note")
+        load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
         lines = [f"decision latency: {self.runs} runs, {self.threads} torch threads, torch {torch.__version__}, "
-                 f"grasp threshold {self.threshold}, heightmaps: {len(self.cases)} shipped scenes", head,
-                 "-" * len(head)]
+                 f"{os.cpu_count()} CPUs (load average {load:.1f}), grasp threshold {self.threshold}, "
+                 f"heightmaps: {len(self.cases)} shipped scenes", head, "-" * len(head)]
         for r in self.rows:
             agree = f"{100.0 * r.agree / r.cases:5.1f}% ({r.agree}/{r.cases})" if r.cases else "-"
-            lines.append(f"{r.variant:12s} {r.mode:13s} {r.median_ms:10.1f} {r.speedup:10.2f}x {agree:>15s}  "
-                         f"{r.note}".rstrip())
+            lines.append(f"{r.variant:12s} {r.mode:13s} {r.median_ms:10.1f} {r.cpu_ms:8.0f} {r.speedup:10.2f}x "
+                         f"{agree:>15s}  {r.note}".rstrip())
         return "\n".join(lines)
 
 
@@ -188,20 +192,22 @@ def bench_variant(variant: str, cases: Sequence[Case], runs: int, modes: Sequenc
     win_note = f"margin {margin} px, " + ("exact" if 0 <= exact <= margin else "approximate")
     decider = Decider(nets, load().primitives, threshold, margin)
     times: dict[str, list[float]] = {}
+    cpu: dict[str, list[float]] = {}
     decisions: dict[str, dict[str, tuple]] = {}
     fired: dict[str, int] = {}
     for mode in [REFERENCE] + [m for m in modes if m != REFERENCE]:
         fn = MODES[mode]
         fn(decider, cases[0].heightmap, cases[0].target)  # warm-up (allocator, oneDNN primitives)
         decider.early_fired = 0
-        times[mode], decisions[mode] = [], {}
+        times[mode], cpu[mode], decisions[mode] = [], [], {}
         for i in range(max(runs, len(cases))):
             case = cases[i % len(cases)]
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             d = fn(decider, case.heightmap, case.target)
-            dt = time.perf_counter() - t0
+            dt, dc = time.perf_counter() - t0, time.process_time() - c0
             if i < runs:
                 times[mode].append(dt * 1000.0)
+                cpu[mode].append(dc * 1000.0)
             decisions[mode].setdefault(case.name, _key(d))
         fired[mode] = decider.early_fired
         log(f"{variant} {mode}: median {statistics.median(times[mode]):.1f} ms")
@@ -214,7 +220,7 @@ def bench_variant(variant: str, cases: Sequence[Case], runs: int, modes: Sequenc
         if "early" in mode:
             notes.append(f"early grasp on {fired[mode]}/{max(runs, len(cases))} calls")
         note = "; ".join(notes)
-        rows.append(Row(variant, mode, med, base / med, agree, len(cases), note))
+        rows.append(Row(variant, mode, med, statistics.median(cpu[mode]), base / med, agree, len(cases), note))
     return rows
 
 

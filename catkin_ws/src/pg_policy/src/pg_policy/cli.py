@@ -14,6 +14,7 @@ COMMANDS: dict[str, str] = {
     "scene": "pg_sim.scene_cli:add_parser",
     "train": "pg_policy.train_cli:add_parser",
     "export": "pg_policy.export_cli:add_parser",
+    "infer": "pg_policy.infer_cli:add_parser",
     "eval": "pg_policy.eval_cli:add_parser",
     "bench": "pg_policy.bench_cli:add_parser",
 }

@@ -62,36 +62,33 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ev.set_defaults(run=_run)
 
 
-# -- worker processes (each holds one SimEnv and one policy) ---------------------------------------------------
+# -- worker processes (each holds one policy; every trial gets a fresh SimEnv) ----------------------------------
 _WORKER: dict[str, Any] = {}
 
 
 def _worker_init(policy: str, opts: Any) -> None:
     from pg_policy.policies import make_policy
-    from pg_policy.sim_env import SimEnv
 
-    _WORKER["env"] = SimEnv()
     _WORKER["policy"] = make_policy(policy, opts)
 
 
 def _worker_trial(index: int, name: str, seed: int, plan: Any) -> tuple[int, Any]:
-    from pg_policy.evaluate import run_trial, trial_scene
+    from pg_policy.evaluate import run_fresh
+    from pg_policy.sim_env import SimEnv
 
-    scene = trial_scene(name, seed, plan.jitter_xy, plan.jitter_yaw)
-    return index, run_trial(_WORKER["env"], _WORKER["policy"], scene, seed, plan.limits, scene_name=name)
+    return index, run_fresh(SimEnv, _WORKER["policy"], name, seed, plan)
 
 
 def run_trials(policy: str, opts: Any, plan: Any, workers: int, on_trial: Any = None) -> list[Any]:
     """All trials of `plan` (in plan order) with `workers` processes (1 = in this process); `on_trial(record)` is
-    called as each finishes."""
+    called as each finishes. Every trial runs in a fresh SimEnv, so the records do not depend on `workers`."""
     from pg_policy.evaluate import run_plan
 
     if workers <= 1:
         from pg_policy.policies import make_policy
         from pg_policy.sim_env import SimEnv
 
-        with SimEnv() as env:
-            return run_plan(env, make_policy(policy, opts), plan, on_trial)
+        return run_plan(SimEnv, make_policy(policy, opts), plan, on_trial)
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
@@ -126,14 +123,16 @@ def _run(args: argparse.Namespace) -> int:
     opts = PolicyOptions(models=tuple(args.model), seed=args.seed, device=args.device,
                          grasp_threshold=args.grasp_threshold)
     policy = make_policy(args.policy, opts)  # validates the name and the model files before any simulation
-    if hasattr(policy, "grasp_net"):
-        opts = replace(opts, models=(policy.grasp_net.path,) + ((policy.push_net.path,) if hasattr(policy, "push_net")
-                                                                  else ()))
+    paths = getattr(policy, "model_paths", None)
+    if paths:  # workers and the record get the resolved files
+        opts = replace(opts, models=tuple(paths))
+    policy_name = getattr(policy, "name", args.policy)
     del policy
     plan = EvalPlan(tuple(scenes), args.trials, args.seed, Limits(args.max_actions, args.max_failed_grasps),
                     args.jitter_xy, math.radians(args.jitter_yaw))
     config = {
-        "policy": args.policy, "models": [str(p) for p in opts.models], "scenes": scenes, "trials": args.trials,
+        "policy": policy_name, "policy_arg": args.policy, "models": [str(p) for p in opts.models],
+        "scenes": scenes, "trials": args.trials,
         "seed": args.seed, "trial_seeds": f"seed + i for trial i = 0..{args.trials - 1}",
         "max_actions": args.max_actions, "max_failed_grasps": args.max_failed_grasps,
         "jitter_xy_m": args.jitter_xy, "jitter_yaw_deg": args.jitter_yaw, "grasp_threshold": args.grasp_threshold,
@@ -141,7 +140,7 @@ def _run(args: argparse.Namespace) -> int:
         "host_cpus": os.cpu_count(),
     }
     done: list[Any] = []
-    bar = tqdm(total=len(plan.jobs()), desc=f"eval {args.policy}", unit="trial", disable=args.no_progress)
+    bar = tqdm(total=len(plan.jobs()), desc=f"eval {policy_name}", unit="trial", disable=args.no_progress)
 
     def on_trial(rec: Any) -> None:
         done.append(rec)
@@ -152,7 +151,7 @@ def _run(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     try:
-        trials = run_trials(args.policy, opts, plan, args.workers, on_trial)
+        trials = run_trials(policy_name, opts, plan, args.workers, on_trial)
     finally:
         bar.close()
     config["wall_s"] = round(time.perf_counter() - t0, 1)

@@ -22,7 +22,8 @@ deviation over sqrt(n)); undefined (None) for n < 2.
 
 Seeds: trial i (0-based) of every scene uses seed ``seed + i``: it seeds the random scene (``random-N``), the pose
 jitter of fixed scenes, and the policy's own randomness (``policy.reset(seed)``), so a run is reproducible from
-``seed`` alone. Evaluation seeds must be disjoint from training seeds: training uses seeds below ``MIN_EVAL_SEED``.
+``seed`` alone (every trial runs in a fresh simulator, see ``run_plan``). Evaluation seeds must be disjoint from
+training seeds: training uses seeds below ``MIN_EVAL_SEED``.
 
 Fixed scenes (packed, household, files) are deterministic in PyBullet, so repeated trials of a deterministic policy
 would be copies of each other. Each trial therefore places the whole scene with a small seeded rigid motion
@@ -292,17 +293,33 @@ class EvalPlan:
         return [(s, self.seed + i) for s in self.scenes for i in range(self.trials)]
 
 
-def run_plan(env: EvalEnv, policy: EvalPolicy, plan: EvalPlan,
+def run_plan(make_env: Callable[[], EvalEnv], policy: EvalPolicy, plan: EvalPlan,
              on_trial: Callable[[TrialRecord], None] | None = None) -> list[TrialRecord]:
-    """Run every trial of `plan` in order with one env and policy; `on_trial` is called after each trial."""
+    """Run every trial of `plan` in order; `on_trial` is called after each trial.
+
+    Each trial gets a fresh environment from `make_env()` (closed afterwards when it has close()): PyBullet's
+    contact solver keeps state between calls, so a world that ran other trials before would not reproduce a trial
+    exactly. With a fresh world per trial, a trial's record depends only on (policy, scene, seed, limits, jitter).
+    """
     out = []
     for name, seed in plan.jobs():
-        scene = trial_scene(name, seed, plan.jitter_xy, plan.jitter_yaw)
-        rec = run_trial(env, policy, scene, seed, plan.limits, scene_name=name)
-        out.append(rec)
+        out.append(run_fresh(make_env, policy, name, seed, plan))
         if on_trial is not None:
-            on_trial(rec)
+            on_trial(out[-1])
     return out
+
+
+def run_fresh(make_env: Callable[[], EvalEnv], policy: EvalPolicy, name: str, seed: int,
+              plan: EvalPlan) -> TrialRecord:
+    """One trial of `plan` (scene `name`, `seed`) in a fresh environment from `make_env()`."""
+    scene = trial_scene(name, seed, plan.jitter_xy, plan.jitter_yaw)
+    env = make_env()
+    try:
+        return run_trial(env, policy, scene, seed, plan.limits, scene_name=name)
+    finally:
+        close = getattr(env, "close", None)
+        if close is not None:
+            close()
 
 
 def summarize(trials: Sequence[TrialRecord]) -> dict[str, dict[str, Stat]]:

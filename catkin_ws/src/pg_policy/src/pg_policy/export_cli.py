@@ -11,7 +11,8 @@ STAGE_ORDER = ("alternate", "push", "grasp-goal", "grasp-agnostic")
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("export", help="export a run's checkpoint as TorchScript files with embedded metadata",
                        description="Writes OUT/grasp.pt and OUT/push.pt; loading them needs no project source.")
-    p.add_argument("--run", dest="run_dir", type=Path, required=True, help="training run directory (the --out of `pushgrasp train`)")
+    p.add_argument("--run", dest="run_dir", type=Path, required=True,
+                   help="training run directory (the --out of `pushgrasp train`)")
     p.add_argument("--stage", default=None, choices=STAGE_ORDER,
                    help="stage whose last.pt to export (default: the latest stage present)")
     p.add_argument("--out", type=Path, required=True, help="output directory for grasp.pt and push.pt")

@@ -5,10 +5,14 @@ above the table) in `world` metres. Rotation index r means yaw = r * 2 pi / R (R
 fingers along u = (cos yaw, sin yaw), a push travels 0.13 m along u (DESIGN.md sections 3 and 4).
 
 The rule, for a visible target:
+0. If another object lies on the target (its cells inside the target's convex hull are higher than the target),
+   grasp that object away first.
 1. Grasp if some rotation is *free*: with the fingers open (max_opening between the pads) and centred on the
    target's extent along u, the region each finger occupies and sweeps while closing (finger width along v plus a
    margin, from the target's edge to the finger's outer face plus a margin) holds no cell of another object higher
-   than the grasp height minus a tolerance, and the target fits between the pads. Among free grasps the one with
+   than the grasp height minus a tolerance, the target fits between the pads, and the target is (nearly) as wide in
+   the central strip of the pads as anywhere between them (else the pads touch it off-centre and it squirts out:
+   round or wedge-shaped targets are grasped through their widest part). Among free grasps the one with
    the largest clearance (distance from those regions to the nearest obstacle) wins, ties going to central ones.
 2. Otherwise push the target out of the clutter: for each of the 16 directions d, the closed fingers start behind
    the target on the line through its centre (backing off until the start is free, else the direction is dropped),
@@ -16,7 +20,10 @@ The rule, for a visible target:
    the push (fingers along the perpendicular of d, objects in the push corridor assumed to be carried along) would
    be free afterwards and by its clearance, the free run ahead of the target, a short back-off, and keeping the
    target inside the workspace.
-3. Target not visible: grasp (goal-agnostically) the most graspable object, preferring objects near where the target
+3. After `declutter_after` pushes in a row without a free grasp (pushes that drag the blocking neighbour along,
+   e.g. a target nested in an arch), grasp away the neighbour whose removal frees a grasp of the target (this costs
+   one failed grasp attempt).
+4. Target not visible: grasp (goal-agnostically) the most graspable object, preferring objects near where the target
    was last seen and high ones (something on top of the target), to uncover it.
 Grasps that already failed at the same place and rotation are not repeated within a trial.
 """
@@ -32,6 +39,8 @@ from pg_policy.action_geometry import grasp_z, push_z
 from pg_policy.geometry import Geometry
 from pg_policy.heightmap import Heightmap, world_to_pixel
 
+OFFSETS = (0.0, -0.006, 0.006, -0.012, 0.012, -0.018, 0.018, -0.024, 0.024, -0.03, 0.03)  # grasp line shifts (m)
+
 
 @dataclass(frozen=True)
 class HeuristicParams:
@@ -45,8 +54,12 @@ class HeuristicParams:
     max_backoff: float = 0.10  # farthest start tried behind the target (over neighbours: they are pushed too)
     edge_margin: float = 0.03  # predicted target centre must stay this far inside the workspace
     min_band_cells: int = 10  # target cells needed between the finger pads for a grasp
+    centre_line: float = 0.006  # half-width of the central strip of the pads
+    chord_tol: float = 0.004  # the target may be this much narrower in the central strip than between the pads
     repeat_radius: float = 0.008  # a failed grasp closer than this (same rotation) is not repeated
     min_target_cells: int = 25  # fewer visible target cells: treated as not visible
+    on_top: float = 0.01  # another object's cells this much above the target's top inside its hull lie on it
+    declutter_after: int = 4  # pushes in a row after which a blocking neighbour is grasped away
 
 
 @dataclass(frozen=True)
@@ -125,13 +138,20 @@ class HeuristicPlanner:
         u = np.array([math.cos(yaw), math.sin(yaw)])
         v = np.array([-u[1], u[0]])
         rel = t_xy - centre
-        band = np.abs(rel @ v) <= self.finger_w / 2 + p.margin
-        if int(band.sum()) < p.min_band_cells:
-            return None
+        t = rel @ v
+        band = np.abs(t) <= self.finger_w / 2 + p.margin
+        if int(band.sum()) < p.min_band_cells or t[band].min() > -p.centre_line or t[band].max() < p.centre_line:
+            return None  # the central strip of the pads is not all on the target
         s = rel[band] @ u
         lo, hi = float(s.min()), float(s.max())
         if hi - lo > 2 * (self.half_open - p.margin):
             return None
+        centre_line = np.abs(t) <= p.centre_line
+        if not centre_line.any():
+            return None
+        sc = rel[centre_line] @ u
+        if float(sc.max() - sc.min()) < (hi - lo) - p.chord_tol:
+            return None  # the pads would first touch the target off the closing line: it squirts out (round, wedge)
         c2 = centre + 0.5 * (lo + hi) * u
         reach = self.half_open + self.finger_t + p.margin  # outer face of an open finger + margin
         block = o_h > z_grasp - p.obstacle_tol
@@ -158,7 +178,7 @@ class HeuristicPlanner:
         for r in rotations if rotations is not None else range(half):
             yaw = self.yaw(r)
             v = np.array([-math.sin(yaw), math.cos(yaw)])
-            for off in (0.0, -0.006, 0.006, -0.012, 0.012, -0.018, 0.018):
+            for off in OFFSETS:
                 centre = centroid + off * v
                 pix = self._pixel(hm, centre)
                 if pix is None or not obj[pix]:
@@ -233,18 +253,18 @@ class HeuristicPlanner:
                               f"grasp after {'free' if post_ok else 'blocked'}")
         return best
 
-    # -- fallbacks -------------------------------------------------------------------------------------------------
-    def uncover(self, hm: Heightmap, last_seen: np.ndarray | None,
-                tabu: list[tuple[int, float, float]]) -> Action | None:
-        """Target hidden: the most graspable other object (by colour blob), near `last_seen` and high ones first."""
+    # -- other objects -------------------------------------------------------------------------------------------
+    def blobs(self, hm: Heightmap, exclude: np.ndarray | None = None) -> list[tuple[str, np.ndarray, np.ndarray]]:
+        """(colour name, (H, W) bool cells, centre (x, y) m) of each single-colour object region on the table."""
         import cv2
 
         from pg_policy.palette import PALETTE
         from pg_policy.target_mask import target_mask
 
         occupied = hm.height > self.p.occupied
-        cells = _Cells(hm, None, 0.0)
-        best: Action | None = None
+        if exclude is not None:
+            occupied &= ~exclude
+        out = []
         for name in PALETTE:
             mask = target_mask(hm.color, hm.valid, name) & occupied
             if mask.sum() < self.p.min_target_cells:
@@ -252,20 +272,74 @@ class HeuristicPlanner:
             n, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
             for i in range(1, n):
                 blob = labels == i
-                if blob.sum() < self.p.min_target_cells:
-                    continue
-                rows, cols = np.nonzero(blob)
-                centre = np.array([hm.bounds[0, 0] + (cols.mean() + 0.5) * hm.resolution,
-                                   hm.bounds[1, 0] + (rows.mean() + 0.5) * hm.resolution])
-                local = _Cells(hm, centre, self.p.window)
-                act = self.best_grasp(hm, blob, occupied & ~_dilate(blob, 1), local, tabu)
-                if act is None:
-                    continue
-                near = 0.0 if last_seen is None else float(np.linalg.norm(centre - last_seen))
-                score = float(hm.height[blob].max()) - 0.5 * near + act.score
-                if best is None or score > best.score:
-                    best = Action("grasp", act.rotation, act.row, act.col, score, f"uncover: grasp {name} object")
-        del cells
+                if blob.sum() >= self.p.min_target_cells:
+                    out.append((name, blob, self._centre(hm, blob)))
+        return out
+
+    @staticmethod
+    def _centre(hm: Heightmap, mask: np.ndarray) -> np.ndarray:
+        rows, cols = np.nonzero(mask)
+        return np.array([hm.bounds[0, 0] + (cols.mean() + 0.5) * hm.resolution,
+                         hm.bounds[1, 0] + (rows.mean() + 0.5) * hm.resolution])
+
+    def _grasp_of(self, hm: Heightmap, blob: np.ndarray, centre: np.ndarray,
+                  tabu: list[tuple[int, float, float]]) -> Action | None:
+        occupied = hm.height > self.p.occupied
+        return self.best_grasp(hm, blob, occupied & ~_dilate(blob, 1), _Cells(hm, centre, self.p.window), tabu)
+
+    def uncover(self, hm: Heightmap, last_seen: np.ndarray | None,
+                tabu: list[tuple[int, float, float]]) -> Action | None:
+        """Target hidden: the most graspable other object (by colour blob), near `last_seen` and high ones first."""
+        best: Action | None = None
+        for name, blob, centre in self.blobs(hm):
+            act = self._grasp_of(hm, blob, centre, tabu)
+            if act is None:
+                continue
+            near = 0.0 if last_seen is None else float(np.linalg.norm(centre - last_seen))
+            score = float(hm.height[blob].max()) - 0.5 * near + act.score
+            if best is None or score > best.score:
+                best = Action("grasp", act.rotation, act.row, act.col, score, f"uncover: grasp {name} object")
+        return best
+
+    def remove_on_top(self, hm: Heightmap, target: np.ndarray,
+                      tabu: list[tuple[int, float, float]]) -> Action | None:
+        """Something lies on the target (higher cells of another object inside the target's convex hull): grasp the
+        object that covers most of those cells away; None when nothing lies on it or it cannot be grasped."""
+        import cv2
+
+        pts = np.argwhere(target)[:, ::-1].astype(np.int32)  # (col, row)
+        hull = np.zeros(target.shape, np.uint8)
+        cv2.fillConvexPoly(hull, cv2.convexHull(pts), 1)
+        top = float(np.median(hm.height[target]))
+        over = hull.astype(bool) & ~_dilate(target, 1) & (hm.height > top + self.p.on_top)
+        if over.sum() < self.p.min_target_cells:
+            return None
+        best: Action | None = None
+        for name, blob, centre in self.blobs(hm, exclude=_dilate(target, 1)):
+            cover = int((blob & over).sum())
+            if cover < self.p.min_target_cells:
+                continue
+            act = self._grasp_of(hm, blob, centre, tabu)
+            if act is not None and (best is None or cover > best.score):
+                best = Action("grasp", act.rotation, act.row, act.col, cover, f"remove {name} object on the target")
+        return best
+
+    def remove_blocker(self, hm: Heightmap, target: np.ndarray, cells: _Cells,
+                       tabu: list[tuple[int, float, float]]) -> Action | None:
+        """Grasp (and so remove) the neighbour whose absence frees a grasp of the target; None if there is none."""
+        occupied = hm.height > self.p.occupied
+        near = _dilate(target, int(round(0.02 / hm.resolution)))
+        best: Action | None = None
+        for name, blob, centre in self.blobs(hm, exclude=_dilate(target, 1)):
+            if not (blob & near).any():
+                continue
+            after = self.best_grasp(hm, target, occupied & ~_dilate(target, 1) & ~_dilate(blob, 1), cells, [])
+            if after is None:
+                continue
+            act = self._grasp_of(hm, blob, centre, tabu)
+            if act is not None and (best is None or act.score + after.score > best.score):
+                best = Action("grasp", act.rotation, act.row, act.col, act.score + after.score,
+                              f"remove blocking {name} object")
         return best
 
     def fallback(self, hm: Heightmap, rng: np.random.Generator) -> Action:
@@ -278,15 +352,19 @@ class HeuristicPlanner:
 
     # -- top level -------------------------------------------------------------------------------------------------
     def plan(self, hm: Heightmap, target: np.ndarray, tabu: list[tuple[int, float, float]],
-             last_seen: np.ndarray | None, rng: np.random.Generator) -> Action:
-        """The action of the rule (module docstring) for a target mask ((H, W) bool, possibly empty)."""
+             last_seen: np.ndarray | None, rng: np.random.Generator, pushes_in_row: int = 0) -> Action:
+        """The action of the rule (module docstring) for a target mask ((H, W) bool, possibly empty).
+
+        pushes_in_row: pushes since the last grasp (from `declutter_after` on, a blocking neighbour may be removed).
+        """
         if int(target.sum()) >= self.p.min_target_cells:
-            rows, cols = np.nonzero(target)
-            centre = np.array([hm.bounds[0, 0] + (cols.mean() + 0.5) * hm.resolution,
-                               hm.bounds[1, 0] + (rows.mean() + 0.5) * hm.resolution])
-            cells = _Cells(hm, centre, self.p.window)
+            cells = _Cells(hm, self._centre(hm, target), self.p.window)
             others = (hm.height > self.p.occupied) & ~_dilate(target, 1)
-            act = self.best_grasp(hm, target, others, cells, tabu)
+            act = self.remove_on_top(hm, target, tabu)
+            if act is None:
+                act = self.best_grasp(hm, target, others, cells, tabu)
+            if act is None and pushes_in_row >= self.p.declutter_after:
+                act = self.remove_blocker(hm, target, cells, tabu)
             if act is None:
                 act = self.best_push(hm, target, cells)
             if act is not None:

@@ -127,10 +127,12 @@ class HeuristicPolicy(_Base):
         self.tabu: list[tuple[int, float, float]] = []
         self.last_seen: np.ndarray | None = None
         self.last_action: Any = None
+        self.pushes_in_row = 0
 
     def reset(self, seed: int | None = None) -> None:
         super().reset(seed)
         self.tabu, self.last_seen, self.last_action = [], None, None
+        self.pushes_in_row = 0
 
     def act(self, obs: Any) -> Decision:
         hm = obs.heightmap
@@ -139,8 +141,9 @@ class HeuristicPolicy(_Base):
             rows, cols = np.nonzero(target)
             self.last_seen = np.array([hm.bounds[0, 0] + (cols.mean() + 0.5) * hm.resolution,
                                        hm.bounds[1, 0] + (rows.mean() + 0.5) * hm.resolution])
-        act = self.planner.plan(hm, target, self.tabu, self.last_seen, self.rng)
+        act = self.planner.plan(hm, target, self.tabu, self.last_seen, self.rng, self.pushes_in_row)
         self.last_action = act
+        self.pushes_in_row = self.pushes_in_row + 1 if act.primitive == "push" else 0
         d = self.decision(hm, act.primitive, act.rotation, act.row, act.col, act.score)
         if act.primitive == "grasp":
             self.tabu.append((act.rotation, d.x, d.y))
@@ -174,31 +177,18 @@ def resolve_models(paths: Sequence[str | Path], need_push: bool) -> tuple[Path, 
     return ps[0], ps[1] if len(ps) > 1 else None
 
 
-class _QNetRunner:
-    """A TorchScript Q net (pg_policy.model_io.load_qnet) evaluated on one heightmap: (R, H, W) float32 Q maps."""
+def _load_nets(grasp: Path, push: Path | None, device: str) -> Any:
+    """pg_policy.inference.PolicyNets from exported files (the grasp net stands in for a missing push net, whose
+    maps are then never asked for). Raises ModelLoadError (a ValueError) for bad files or another geometry."""
+    from pg_policy.inference import PolicyNets
+    from pg_policy.model_io import ModelLoadError, load_qnet
 
-    def __init__(self, path: Path, device: str) -> None:
-        from pg_policy.model_io import load_qnet
-
-        self.module, self.metadata = load_qnet(path)
-        self.path = path
-        self.device = device
-        self.module.to(device)
-        self.module.eval()
-        cfg = self.metadata.get("config") if isinstance(self.metadata, dict) else None
-        goal = (cfg or {}).get("goal") if isinstance(cfg, dict) else self.metadata.get("goal")
-        self.use_mask = bool(getattr(self.module, "use_mask", goal == "mask"))
-
-    def __call__(self, hm: Heightmap, mask: np.ndarray) -> np.ndarray:
-        import torch
-
-        with torch.no_grad():
-            color = torch.from_numpy(np.ascontiguousarray(hm.color, dtype=np.float32) / 255.0)
-            color = color.permute(2, 0, 1)[None].to(self.device)
-            depth = torch.from_numpy(np.asarray(hm.height, dtype=np.float32))[None, None].to(self.device)
-            m = torch.from_numpy(mask.astype(np.float32))[None, None].to(self.device) if self.use_mask else None
-            q = self.module(color, depth, m)
-        return q[0].float().cpu().numpy()
+    if push is not None:
+        return PolicyNets.from_files(grasp, push, device=device)
+    net, meta = load_qnet(grasp, map_location=device)
+    if meta.get("role") != "grasp":
+        raise ModelLoadError(f"{grasp}: exported as the {meta.get('role')!r} net, expected 'grasp'")
+    return PolicyNets(net, net, {"grasp": meta, "push": meta}, device)
 
 
 def _goal_or_all(obs: Any) -> np.ndarray:
@@ -220,29 +210,27 @@ class GraspOnlyPolicy(_Base):
     def __init__(self, opts: PolicyOptions) -> None:
         super().__init__(opts)
         grasp, _ = resolve_models(opts.models, need_push=False)
-        self.grasp_net = _QNetRunner(grasp, opts.device)
+        self.model_paths: tuple[Path, ...] = (grasp,)
+        self.nets = _load_nets(grasp, None, opts.device)
 
     def act(self, obs: Any) -> Decision:
         from pg_policy.decision import masked_argmax
 
         hm = obs.heightmap
         mask = _goal_or_all(obs)
-        q = self.grasp_net(hm, mask)
+        q = self.nets.q_maps(hm, mask, nets=("grasp",))["grasp"]
         self._q = {"grasp": q}
         r, row, col, value = masked_argmax(q, mask & hm.valid if (mask & hm.valid).any() else mask)
         return self.decision(hm, "grasp", r, row, col, value, value)
 
 
 def threshold_from_metadata(metadata: Any) -> float:
-    """The grasp threshold stored with a grasp model; ValueError when absent."""
-    md = metadata if isinstance(metadata, dict) else {}
-    for key in ("grasp_threshold", "threshold"):
-        if key in md:
-            return float(md[key])
-        for sub in md.values():
-            if isinstance(sub, dict) and key in sub:
-                return float(sub[key])
-    raise ValueError("the grasp model's metadata holds no grasp_threshold; pass --grasp-threshold")
+    """The grasp threshold stored with a grasp model (metadata "thresholds" -> "grasp_q", pg_policy.model_io);
+    ValueError when absent."""
+    thresholds = metadata.get("thresholds") if isinstance(metadata, dict) else None
+    if not isinstance(thresholds, dict) or "grasp_q" not in thresholds:
+        raise ValueError("the grasp model's metadata holds no thresholds.grasp_q; pass --grasp-threshold")
+    return float(thresholds["grasp_q"])
 
 
 class LearnedPolicy(_Base):
@@ -253,19 +241,18 @@ class LearnedPolicy(_Base):
     def __init__(self, opts: PolicyOptions) -> None:
         super().__init__(opts)
         grasp, push = resolve_models(opts.models, need_push=True)
-        self.grasp_net = _QNetRunner(grasp, opts.device)
-        self.push_net = _QNetRunner(push, opts.device)  # type: ignore[arg-type]
+        self.model_paths = (grasp, push)
+        self.nets = _load_nets(grasp, push, opts.device)
         self.threshold = (opts.grasp_threshold if opts.grasp_threshold is not None
-                          else threshold_from_metadata(self.grasp_net.metadata))
+                          else threshold_from_metadata(self.nets.metadata["grasp"]))
 
     def act(self, obs: Any) -> Decision:
         from pg_policy.decision import decide
 
         hm = obs.heightmap
         mask = _goal_or_all(obs)
-        qg, qp = self.grasp_net(hm, mask), self.push_net(hm, mask)
-        self._q = {"grasp": qg, "push": qp}
-        return decide(qg, qp, mask, hm, self.prims, self.threshold)
+        self._q = self.nets.q_maps(hm, mask)
+        return decide(self._q["grasp"], self._q["push"], mask, hm, self.prims, self.threshold)
 
 
 REGISTRY: dict[str, Callable[[PolicyOptions], Policy]] = {

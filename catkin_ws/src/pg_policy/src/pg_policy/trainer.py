@@ -200,7 +200,8 @@ class Trainer:
                     _, td_i = self.learn(self.replay[t.primitive].get(i))
                     self.replay[t.primitive].update_priority(i, td_i)
         row_log = {"iteration": self.iteration, "episode": self.episode, "primitive": primitive, "rotation": rot,
-                   "row": row, "col": col, "q": round(float(q[primitive][rot, row, col]), 4) if q is not None else "", "explored": int(explored),
+                   "row": row, "col": col, "explored": int(explored),
+                   "q": round(float(q[primitive][rot, row, col]), 4) if q is not None else "",
                    "reward": reward, "grasped": int(result.grasped), "success": int(success),
                    "epsilon": round(eps, 3), "loss": round(loss, 5), "sim_s": round(result.sim_time, 2)}
         return row_log, nxt

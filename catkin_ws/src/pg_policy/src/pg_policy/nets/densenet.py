@@ -136,15 +136,18 @@ def _read_state_dict(path: Path) -> dict[str, Tensor]:
 def load_pretrained(module: nn.Module, path: str | Path) -> None:
     """Load a torchvision densenet121 .pth into `module` (a `DenseNet121Trunk`, strict match of every key/shape).
 
-    The file may hold the full classifier model (``classifier.*`` ignored), use legacy key names, or carry a
-    ``module.`` prefix (DataParallel). Raises FileNotFoundError if missing, PretrainedError (a ValueError) if the
-    file is corrupt or its keys/shapes do not match.
+    The file may hold the full classifier model (``classifier.*`` ignored), use legacy key names (and lack the
+    ``num_batches_tracked`` buffers), or carry a ``module.`` prefix (DataParallel). Raises FileNotFoundError if
+    missing, PretrainedError (a ValueError) if the file is corrupt or its keys/shapes do not match.
     """
     path = Path(path)
     state = rename_legacy_keys(_read_state_dict(path))
     state = {k.removeprefix("module."): v for k, v in state.items()}
     state = {k: v for k, v in state.items() if not k.startswith("classifier.")}
     expected = module.state_dict()
+    for key in expected:  # checkpoints older than BatchNorm's num_batches_tracked buffer lack it
+        if key.endswith(".num_batches_tracked") and key not in state:
+            state[key] = torch.zeros((), dtype=torch.long)
     missing = sorted(set(expected) - set(state))
     unexpected = sorted(set(state) - set(expected))
     wrong = sorted(k for k in set(expected) & set(state) if tuple(expected[k].shape) != tuple(state[k].shape))

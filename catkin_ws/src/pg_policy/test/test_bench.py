@@ -1,0 +1,90 @@
+"""Decision-latency benchmark: every speed-up mode against full-map inference, the table, the CLI."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from pg_policy.bench import MODES, Case, Decider, bench_variant, crop_heightmap
+from pg_policy.cli import main
+from pg_policy.geometry import load
+from pg_policy.heightmap import Heightmap
+from pg_policy.inference import PolicyNets, target_window
+
+torch.set_num_threads(2)
+
+
+def _case(seed: int = 0, size: int = 224) -> Case:
+    """A synthetic clutter heightmap: random boxes on a table, the target one of them."""
+    geo = load()
+    rng = np.random.default_rng(seed)
+    color = np.full((size, size, 3), (199, 178, 148), np.uint8)
+    height = np.zeros((size, size), np.float32)
+    target = np.zeros((size, size), bool)
+    for i in range(8):
+        r, c = rng.integers(40, size - 60, 2)
+        h, w = rng.integers(15, 40, 2)
+        color[r:r + h, c:c + w] = rng.integers(0, 255, 3)
+        height[r:r + h, c:c + w] = rng.uniform(0.02, 0.06)
+        if i == 7:
+            target[:] = False
+            target[r:r + h, c:c + w] = True
+    hm = Heightmap(color, height, np.ones_like(target), geo.heightmap.resolution, geo.workspace.bounds)
+    return Case(f"synthetic-{seed}", hm, target)
+
+
+@pytest.fixture(scope="module")
+def nets():
+    return PolicyNets.random("lite", "mask", seed=0)
+
+
+def test_target_window_and_crop():
+    mask = np.zeros((50, 60), bool)
+    mask[10:20, 40:55] = True
+    assert target_window(mask, 5) == (5, 25, 35, 60)
+    assert target_window(np.zeros((4, 4), bool), 3) is None
+    case = _case()
+    sub = crop_heightmap(case.heightmap, (10, 30, 20, 50))
+    assert sub.height.shape == (20, 30)
+    res = case.heightmap.resolution
+    np.testing.assert_allclose(sub.bounds[:2], [[-0.224 + 20 * res, -0.224 + 50 * res],
+                                                [-0.224 + 10 * res, -0.224 + 30 * res]])
+
+
+@pytest.mark.parametrize("threshold", [-1e9, 1e9])  # the early grasp always / never fires
+def test_modes_agree_with_full_map(nets, threshold):
+    prims = load().primitives
+    decider = Decider(nets, prims, threshold)
+    for seed in (0, 1):
+        case = _case(seed)
+        ref = decider.batched(case.heightmap, case.target)
+        assert ref.primitive == ("grasp" if threshold < 0 else "push")
+        for mode in ("vpg-loop", "early-grasp", "window", "window+early"):
+            d = MODES[mode](decider, case.heightmap, case.target)
+            assert (d.primitive, d.rotation, d.row, d.col) == (ref.primitive, ref.rotation, ref.row, ref.col), mode
+            assert d.x == pytest.approx(ref.x) and d.y == pytest.approx(ref.y) and d.q == pytest.approx(ref.q, abs=1e-4)
+    assert decider.early_fired == (4 if threshold < 0 else 0)
+
+
+def test_bench_variant_rows_and_report(nets):
+    from pg_policy.bench import BenchResult
+
+    cases = [_case(0), _case(1)]
+    rows = bench_variant("lite", cases, runs=2, modes=("vpg-loop", "batched", "window"), threshold=1e9)
+    assert [r.mode for r in rows] == ["vpg-loop", "batched", "window"]
+    assert all(r.median_ms > 0 and r.cpu_ms >= 0 and r.agree == 2 and r.cases == 2 for r in rows)
+    assert rows[0].speedup == pytest.approx(1.0) and "exact" in rows[2].note
+    text = BenchResult(rows, 2, 2, [c.name for c in cases], 1e9).report()
+    assert "vs vpg-loop" in text and "100.0% (2/2)" in text and text.count("\nlite") == 3
+    with pytest.raises(ValueError, match="unknown modes"):
+        bench_variant("lite", cases, runs=1, modes=("fast",))
+
+
+def test_cli_bench_on_a_shipped_scene(capsys):
+    rc = main(["bench", "--variants", "lite", "--runs", "1", "--scenes", "packed/case01",
+               "--modes", "vpg-loop,batched,early-grasp", "--quiet"])
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "lite         batched" in out and "agreement" in out and "1 shipped scenes" in out
+    assert main(["bench", "--variants", "resnet", "--runs", "1", "--scenes", "packed/case01"]) == 2
