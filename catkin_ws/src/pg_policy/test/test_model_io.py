@@ -59,7 +59,7 @@ def test_export_matches_eager_densenet(tmp_path):
     path = export_qnet(net, tmp_path / "push.pt", {"role": "push"})
     module, meta = load_qnet(path)
     color, depth, mask = _inputs(32, 32)
-    with torch.no_grad():
+    with torch.no_grad(), torch.jit.optimized_execution(False):
         torch.testing.assert_close(module(color, depth, mask, [6]), net(color, depth, mask, [6]), atol=1e-5, rtol=0)
     assert meta["backbone"] == "densenet121" and meta["role"] == "push"
 
@@ -151,6 +151,8 @@ def test_policy_nets_from_files_match_eager(tmp_path):
     np.testing.assert_allclose(w["grasp"], a["grasp"][:, win[0]:win[1], win[2]:win[3]], atol=2e-5)
     with pytest.raises(ModelLoadError, match="expected 'grasp'"):
         PolicyNets.from_files(tmp_path / "p.pt", tmp_path / "g.pt")
+    with pytest.raises(ValueError, match="window"):
+        loaded.q_maps(hm, mask, window=(0, 300, 0, 10))
     with pytest.raises(ValueError, match="unknown nets"):
         loaded.q_maps(hm, mask, nets=("poke",))
     assert json.loads(str(loaded.nets["grasp"].config_json))["goal"] == "mask"

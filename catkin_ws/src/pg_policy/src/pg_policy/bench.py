@@ -175,16 +175,18 @@ def _key(d: Decision) -> tuple[str, int, int, int]:
 
 def bench_variant(variant: str, cases: Sequence[Case], runs: int, modes: Sequence[str] = tuple(MODES),
                   threshold: float = 1.8, margin_m: float | None = None, seed: int = 0, goal: str = "mask",
+                  optimize: bool = True, rotations: int = 16,
                   log: Callable[[str], None] = lambda s: None) -> list[Row]:
     """Time and compare every mode for one backbone with random weights (seeded); rows in `modes` order.
 
     Each mode: one warm-up call, then `runs` timed calls cycling through `cases` (extra untimed calls cover cases
     not reached when runs < len(cases)). margin_m: window context (m); None = the backbone's exact margin, else
-    APPROX_MARGIN_M. Raises ValueError for an unknown mode or no cases."""
+    APPROX_MARGIN_M. optimize: frozen TorchScript nets (`optimize_for_cpu`, as deployed) for every mode.
+    Raises ValueError for an unknown mode or no cases."""
     unknown = [m for m in modes if m not in MODES]
     if unknown or not cases:
         raise ValueError(f"unknown modes {unknown} (known: {list(MODES)})" if unknown else "no heightmaps to run on")
-    nets = PolicyNets.random(variant, goal, seed=seed)
+    nets = PolicyNets.random(variant, goal, rotations=rotations, seed=seed, optimize=optimize)
     res = cases[0].heightmap.resolution
     exact = nets.exact_margin()
     margin = int(round(margin_m / res)) if margin_m is not None else exact if exact >= 0 else int(
@@ -197,7 +199,8 @@ def bench_variant(variant: str, cases: Sequence[Case], runs: int, modes: Sequenc
     fired: dict[str, int] = {}
     for mode in [REFERENCE] + [m for m in modes if m != REFERENCE]:
         fn = MODES[mode]
-        fn(decider, cases[0].heightmap, cases[0].target)  # warm-up (allocator, oneDNN primitives)
+        for _ in range(2):  # warm-up: allocator, oneDNN primitives, TorchScript's profiling runs
+            fn(decider, cases[0].heightmap, cases[0].target)
         decider.early_fired = 0
         times[mode], cpu[mode], decisions[mode] = [], [], {}
         for i in range(max(runs, len(cases))):
@@ -226,7 +229,7 @@ def bench_variant(variant: str, cases: Sequence[Case], runs: int, modes: Sequenc
 
 def run(variants: Sequence[str] = VARIANTS, runs: int = 20, threads: int = 2, scenes: Sequence[str] | None = None,
         modes: Sequence[str] = tuple(MODES), threshold: float = 1.8, margin_m: float | None = None, seed: int = 0,
-        goal: str = "mask", verbose: bool = True) -> BenchResult:
+        goal: str = "mask", optimize: bool = True, verbose: bool = True) -> BenchResult:
     """The whole benchmark; sets torch.set_num_threads(threads). Raises ValueError for unknown variants/modes."""
     from pg_policy.nets.registry import BACKBONES
 
@@ -244,5 +247,5 @@ def run(variants: Sequence[str] = VARIANTS, runs: int = 20, threads: int = 2, sc
 
     rows: list[Row] = []
     for variant in variants:
-        rows += bench_variant(variant, cases, runs, modes, threshold, margin_m, seed, goal, log)
+        rows += bench_variant(variant, cases, runs, modes, threshold, margin_m, seed, goal, optimize, log=log)
     return BenchResult(rows, runs, threads, [c.name for c in cases], threshold)

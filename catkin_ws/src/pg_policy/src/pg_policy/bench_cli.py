@@ -28,6 +28,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "(lite), else 0.1")
     p.add_argument("--goal", choices=("none", "mask"), default="mask", help="net variant's goal input (default mask)")
     p.add_argument("--seed", type=int, default=0, help="weight initialisation seed (default 0)")
+    p.add_argument("--no-optimize", action="store_true",
+                   help="time the eager nets instead of frozen TorchScript copies (as deployed)")
     p.add_argument("--quiet", action="store_true", help="no per-mode progress on stderr")
     p.set_defaults(run=_run)
 
@@ -37,6 +39,6 @@ def _run(args: argparse.Namespace) -> int:
 
     result = run(args.variants, runs=args.runs, threads=args.threads, scenes=args.scenes,
                  modes=args.modes or tuple(MODES), threshold=args.threshold, margin_m=args.window_margin,
-                 seed=args.seed, goal=args.goal, verbose=not args.quiet)
+                 seed=args.seed, goal=args.goal, optimize=not args.no_optimize, verbose=not args.quiet)
     print(result.report())
     return 0

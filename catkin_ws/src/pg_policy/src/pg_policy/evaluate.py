@@ -200,7 +200,7 @@ def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: L
             rec.pushes += 1
         rec.sim_s += float(result.sim_time)
         rec.actions.append({"index": rec.n_actions, "decision": _plain(decision), "outcome": _plain(result),
-                            "think_s": round(think_s, 4)})
+                            "think_s": round(think_s, 4), "note": str(getattr(policy, "last_note", ""))})
         obs = env.observe()
     rec.wall_s = time.perf_counter() - t0
     return rec

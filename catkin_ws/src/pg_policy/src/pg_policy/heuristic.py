@@ -12,8 +12,10 @@ The rule, for a visible target:
    margin, from the target's edge to the finger's outer face plus a margin) holds no cell of another object higher
    than the grasp height minus a tolerance, the target fits between the pads, and the target is (nearly) as wide in
    the central strip of the pads as anywhere between them (else the pads touch it off-centre and it squirts out:
-   round or wedge-shaped targets are grasped through their widest part). Among free grasps the one with
-   the largest clearance (distance from those regions to the nearest obstacle) wins, ties going to central ones.
+   round or wedge-shaped targets are grasped through their widest part). Among free grasps (8 closing axes x grasp
+   lines shifted by OFFSETS across them) the score favours clearance (distance from those regions to the nearest
+   obstacle) up to `enough_clearance`, then a narrow width between the pads (pads parallel to the short faces, not
+   across a long or tilted side), then a central grasp line.
 2. Otherwise push the target out of the clutter: for each of the 16 directions d, the closed fingers start behind
    the target on the line through its centre (backing off until the start is free, else the direction is dropped),
    and the target is predicted to travel 0.13 m minus the free gap. A direction scores by whether a grasp across
@@ -56,6 +58,8 @@ class HeuristicParams:
     min_band_cells: int = 10  # target cells needed between the finger pads for a grasp
     centre_line: float = 0.006  # half-width of the central strip of the pads
     chord_tol: float = 0.004  # the target may be this much narrower in the central strip than between the pads
+    enough_clearance: float = 0.01  # more clearance than this does not make a grasp better
+    width_weight: float = 0.5  # score per metre of target width between the pads (narrow grasps are stabler)
     repeat_radius: float = 0.008  # a failed grasp closer than this (same rotation) is not repeated
     min_target_cells: int = 25  # fewer visible target cells: treated as not visible
     on_top: float = 0.01  # another object's cells this much above the target's top inside its hull lie on it
@@ -128,8 +132,9 @@ class HeuristicPlanner:
 
     # -- grasp ---------------------------------------------------------------------------------------------------
     def grasp_fit(self, t_xy: np.ndarray, o_xy: np.ndarray, o_h: np.ndarray, centre: np.ndarray, yaw: float,
-                  z_grasp: float) -> tuple[float, np.ndarray] | None:
-        """Clearance (m, >= 0 means free) and the pad-centred grasp point of a grasp at `yaw` through `centre`.
+                  z_grasp: float) -> tuple[float, np.ndarray, float] | None:
+        """Clearance (m, >= 0 means free), the pad-centred grasp point and the target's width between the pads (m) of
+        a grasp at `yaw` through `centre`.
 
         t_xy: (M, 2) target cells; o_xy, o_h: (K, 2) cells of other objects and their heights. None when the target
         does not fit between the pads or too few target cells lie between them.
@@ -156,12 +161,12 @@ class HeuristicPlanner:
         reach = self.half_open + self.finger_t + p.margin  # outer face of an open finger + margin
         block = o_h > z_grasp - p.obstacle_tol
         if not block.any():
-            return 1.0, c2
+            return 1.0, c2, hi - lo
         orel = o_xy[block] - c2
         ds = np.maximum(np.abs(orel @ u) - reach, 0.0)
         dt = np.maximum(np.abs(orel @ v) - (self.finger_w / 2 + p.margin), 0.0)
         dist = np.hypot(ds, dt)
-        return (float(dist.min()) if (dist > 0).all() else -1.0), c2
+        return (float(dist.min()) if (dist > 0).all() else -1.0), c2, hi - lo
 
     def best_grasp(self, hm: Heightmap, obj: np.ndarray, others: np.ndarray, cells: _Cells,
                    tabu: list[tuple[int, float, float]], rotations: list[int] | None = None) -> Action | None:
@@ -193,7 +198,9 @@ class HeuristicPlanner:
                 if any(rt % half == r % half and math.hypot(fit[1][0] - x, fit[1][1] - y) < self.p.repeat_radius
                        for rt, x, y in tabu):
                     continue
-                score = min(fit[0], 0.02) - 0.3 * abs(off)
+                # enough clearance, then the narrowest width (pads parallel to faces, not across a long or
+                # tilted side), then a central grasp line
+                score = min(fit[0], self.p.enough_clearance) - self.p.width_weight * fit[2] - 0.3 * abs(off)
                 if best is None or score > best.score:
                     best = Action("grasp", r, pix2[0], pix2[1], score, f"free grasp, clearance {fit[0]:.3f} m")
         return best

@@ -19,6 +19,17 @@ from torch import Tensor, nn
 from pg_policy.heightmap import Heightmap
 
 ROLES = ("grasp", "push")
+# QNet methods and attributes that `PolicyNets` uses: kept when a net is frozen
+PRESERVED = ["rotate_inputs", "q_from_rotated", "rotate_inputs_window", "q_from_rotated_window", "forward_indexed",
+             "use_mask", "num_rotations", "exact_margin", "config_json"]
+
+
+def optimize_for_cpu(net: nn.Module) -> torch.jit.ScriptModule:
+    """A frozen TorchScript copy of `net` (weights become constants: conv+BN folding, fused ReLU): about 2x less CPU
+    for the lite net, outputs within ~1e-5 of the original. Later changes to `net`'s weights are not seen."""
+    net = net.eval()
+    scripted = net if isinstance(net, torch.jit.ScriptModule) else torch.jit.script(net)
+    return torch.jit.freeze(scripted, preserved_attrs=PRESERVED)
 Window = tuple[int, int, int, int]  # (row0, row1, col0, col1), half-open, heightmap cells
 
 
@@ -48,12 +59,14 @@ def target_window(mask: np.ndarray, margin: int) -> Window | None:
 
 class PolicyNets:
     """The grasp net and the push net (eager `QNet` or scripted, not traced: `rotate_inputs`/`q_from_rotated` are
-    used); `metadata` holds each net's export metadata (empty for eager nets)."""
+    used); `metadata` holds each net's export metadata (empty for eager nets). optimize: use frozen copies
+    (`optimize_for_cpu`; a snapshot of the weights, so leave it off for nets that are still training)."""
 
     def __init__(self, grasp: nn.Module, push: nn.Module, metadata: dict[str, dict[str, Any]] | None = None,
-                 device: str | torch.device = "cpu") -> None:
+                 device: str | torch.device = "cpu", optimize: bool = False) -> None:
         self.device = torch.device(device)
-        self.nets: dict[str, nn.Module] = {"grasp": grasp.to(self.device).eval(), "push": push.to(self.device).eval()}
+        nets = {"grasp": grasp.to(self.device).eval(), "push": push.to(self.device).eval()}
+        self.nets: dict[str, nn.Module] = {k: optimize_for_cpu(v) if optimize else v for k, v in nets.items()}
         self.metadata = metadata or {role: {} for role in ROLES}
         rots = {int(net.num_rotations) for net in self.nets.values()}
         if len(rots) != 1:
@@ -62,7 +75,7 @@ class PolicyNets:
 
     @classmethod
     def from_files(cls, grasp_path: str | Path, push_path: str | Path, device: str | torch.device = "cpu",
-                   check_geometry: bool = True) -> PolicyNets:
+                   check_geometry: bool = True, optimize: bool = True) -> PolicyNets:
         """Load two exported TorchScript files (see `pg_policy.model_io`); raises ModelLoadError (a ValueError) for a
         bad file or a file whose metadata names another role or another heightmap geometry."""
         from pg_policy.model_io import ModelLoadError, load_qnet
@@ -72,15 +85,16 @@ class PolicyNets:
             nets[role], meta[role] = load_qnet(path, check_geometry=check_geometry, map_location=device)
             if meta[role].get("role") != role:
                 raise ModelLoadError(f"{path}: exported as the {meta[role].get('role')!r} net, expected {role!r}")
-        return cls(nets["grasp"], nets["push"], meta, device)
+        return cls(nets["grasp"], nets["push"], meta, device, optimize)
 
     @classmethod
-    def random(cls, backbone: str = "lite", goal: str = "mask", rotations: int = 16, seed: int = 0) -> PolicyNets:
-        """Untrained eager nets with a reproducible initialisation (benchmarks, tests)."""
+    def random(cls, backbone: str = "lite", goal: str = "mask", rotations: int = 16, seed: int = 0,
+               optimize: bool = False) -> PolicyNets:
+        """Untrained nets with a reproducible initialisation (benchmarks, tests)."""
         from pg_policy.nets.qnet import QNetConfig, build_qnet
 
         cfg = QNetConfig(backbone=backbone, goal=goal, rotations=rotations)
-        return cls(build_qnet(cfg, seed=seed), build_qnet(cfg, seed=seed + 1))
+        return cls(build_qnet(cfg, seed=seed), build_qnet(cfg, seed=seed + 1), optimize=optimize)
 
     def exact_margin(self) -> int:
         """Smallest window margin (px) for which window maps equal the full maps; -1 if none exists (DenseNet)."""
@@ -106,12 +120,16 @@ class PolicyNets:
         h, w = d.shape[2], d.shape[3]
         if window is not None:
             window = [int(v) for v in window]
+            if len(window) != 4 or not (0 <= window[0] < window[1] <= h and 0 <= window[2] < window[3] <= w):
+                raise ValueError(f"window {window} is not (row0, row1, col0, col1) inside the {h} x {w} heightmap")
             margin = self.exact_margin() if margin is None else int(margin)
             if margin < 0:
                 raise ValueError("these nets have no exact window margin: give `margin` (px) explicitly")
         out: dict[str, np.ndarray] = {}
         shared: dict[bool, tuple[Tensor, ...]] = {}
-        with torch.inference_mode():
+        # optimized_execution(False): TorchScript's profiling executor would re-specialise (seconds for DenseNet) on
+        # every new input shape (window crops) for no measurable gain on CPU.
+        with torch.inference_mode(), torch.jit.optimized_execution(False):
             for role in nets:
                 net = self.nets[role]
                 key = bool(net.use_mask)

@@ -4,7 +4,8 @@ A policy maps an observation (pg_policy.sim_env.EnvObservation, or anything with
 target's palette colour name) to a pg_policy.decision.Decision. It finds the target itself, from the colour
 heightmap with pg_policy.target_mask (never from the simulator's ground truth). `reset(seed)` starts a new trial
 (seeding the policy's own randomness); `q_maps()` returns the Q maps behind the last decision ({"grasp": (R, H, W),
-"push": (R, H, W)} float arrays) for policies that have them, else {}.
+"push": (R, H, W)} float arrays) for policies that have them, else {}. A policy may also keep a `last_note`
+string saying why it took its last decision (pg_policy.evaluate logs it with the action).
 
 REGISTRY (name -> factory taking PolicyOptions):
 - ``random``: uniformly random primitive, rotation and cell, the cell drawn within the target mask grown by
@@ -19,7 +20,7 @@ writes, or as files (grasp first); see `resolve_models`.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
@@ -127,11 +128,12 @@ class HeuristicPolicy(_Base):
         self.tabu: list[tuple[int, float, float]] = []
         self.last_seen: np.ndarray | None = None
         self.last_action: Any = None
+        self.last_note = ""  # why the last decision was taken (logged by pg_policy.evaluate)
         self.pushes_in_row = 0
 
     def reset(self, seed: int | None = None) -> None:
         super().reset(seed)
-        self.tabu, self.last_seen, self.last_action = [], None, None
+        self.tabu, self.last_seen, self.last_action, self.last_note = [], None, None, ""
         self.pushes_in_row = 0
 
     def act(self, obs: Any) -> Decision:
@@ -142,9 +144,9 @@ class HeuristicPolicy(_Base):
             self.last_seen = np.array([hm.bounds[0, 0] + (cols.mean() + 0.5) * hm.resolution,
                                        hm.bounds[1, 0] + (rows.mean() + 0.5) * hm.resolution])
         act = self.planner.plan(hm, target, self.tabu, self.last_seen, self.rng, self.pushes_in_row)
-        self.last_action = act
+        self.last_action, self.last_note = act, act.why
         self.pushes_in_row = self.pushes_in_row + 1 if act.primitive == "push" else 0
-        d = self.decision(hm, act.primitive, act.rotation, act.row, act.col, act.score)
+        d = self.decision(hm, act.primitive, act.rotation, act.row, act.col)
         if act.primitive == "grasp":
             self.tabu.append((act.rotation, d.x, d.y))
         return d
@@ -281,6 +283,6 @@ def make_policy(name_or_path: str, opts: PolicyOptions | None = None) -> Policy:
         kind = "learned" if (path.is_dir() and (path / PUSH_FILE).is_file()) else "grasp-only"
         if not path.exists():
             raise FileNotFoundError(f"model file not found: {path}")
-        return REGISTRY[kind](PolicyOptions(**{**opts.__dict__, "models": (path, *opts.models)}))
+        return REGISTRY[kind](replace(opts, models=(path, *opts.models)))
     raise UnknownPolicyError(f"unknown policy {name_or_path!r}: not a registered policy "
                              f"({', '.join(REGISTRY)}) nor a model file or directory")

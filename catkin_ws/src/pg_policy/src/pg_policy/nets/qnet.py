@@ -17,16 +17,25 @@ Rotation convention (VPG's): rotation index r means yaw theta = r * 360 / R degr
 so the world direction (cos theta, sin theta) appears along +col of the rotated map: a net that learns its primitive
 along +col (push direction; for grasps the jaw closing axis) gives at Q[:, k, row, col] the value of the primitive at
 the cell (row, col) with gripper yaw = rotations[k] * 360 / R degrees in `world`. For r = R/4 (90 deg) the rotated map
-is ``np.rot90(I, 1)`` and Q = ``np.rot90(Q_0(np.rot90(I, 1)), -1)`` exactly.
-Mechanics: inputs are zero-padded (raw values: black, height 0, mask 0) to a square canvas of side
-P = ceil(sqrt(H^2 + W^2)) rounded up to a multiple of 32 (224 -> 320) so no corner is lost, rotated with
-F.affine_grid/grid_sample (bilinear, zeros outside) for all B * R (image, rotation) pairs in ONE backbone batch, then
+is ``np.rot90(I, 1)`` and Q = ``np.rot90(Q_0(np.rot90(I, 1)), -1)`` (up to float rounding, ~1e-5).
+Mechanics: inputs are zero-padded (raw values: black, height 0, mask 0; done as padding the normalised values with
+the normalised 0) to a square canvas of side P = ceil(sqrt(H^2 + W^2)) rounded up to a multiple of 32 (224 -> 320)
+so no corner is lost, rotated by grid_sample (bilinear) on the grid F.affine_grid gives for
+theta = [[cos, -sin, 0], [sin, cos, 0]] (align_corners=False), for all B * R (image, rotation) pairs in ONE backbone
+batch, then
 the head's (B * R, 1, P/s, P/s) output is bilinearly upsampled AND rotated back in one grid_sample evaluated at the
 H x W original cells only (bilinear upsampling followed by evaluation at the exact rotated-back location; at r = 0 this
 equals F.interpolate(size=P, bilinear, align_corners=False) cropped to the heightmap).
 
+Exported methods (kept by torch.jit.script, used by `pg_policy.inference`): `rotate_inputs` / `q_from_rotated` split
+forward so two nets share one rotation of the inputs; `rotate_inputs_window` / `q_from_rotated_window` compute only a
+window of cells from stride-aligned crops of the rotated canvases (equal to the full map for a context margin >=
+`exact_margin` px, attribute: 88 for lite, -1 = never exact for DenseNet-121); `forward_indexed` gives one rotation
+per image (training). Attributes: num_rotations, use_mask, exact_margin, config_json (the QNetConfig as JSON).
+
 Scriptable with torch.jit.script (also trace-able for a fixed shape and rotation list). Eager calls raise ValueError for
-bad shapes, a missing goal mask or an out-of-range rotation; scripted modules raise torch.jit.Error with the same text.
+bad shapes, a missing goal mask, an out-of-range rotation or window; scripted modules raise torch.jit.Error with the
+same text.
 """
 
 from __future__ import annotations
