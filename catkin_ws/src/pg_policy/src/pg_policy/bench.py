@@ -10,7 +10,7 @@ Modes (all with the same weights and the same heightmaps):
   there. With the backbone's exact margin (lite: 88 px) the maps equal the full maps (identical decisions);
   DenseNet-121's receptive field (2071 px) exceeds the map, so its window (default margin 0.1 m) is approximate.
 - ``window+early``: both speed-ups.
-Each mode is timed over `runs` calls (after one warm-up call) cycling through the heightmaps of the shipped scenes
+Each mode is timed over `runs` calls (after two warm-up calls) cycling through the heightmaps of the shipped scenes
 (ground-truth target masks); agreement = % of heightmaps whose decision (primitive, rotation, row, col) equals
 ``batched``'s. The decision rule is `pg_policy.decision.decide`.
 """
@@ -179,7 +179,7 @@ def bench_variant(variant: str, cases: Sequence[Case], runs: int, modes: Sequenc
                   log: Callable[[str], None] = lambda s: None) -> list[Row]:
     """Time and compare every mode for one backbone with random weights (seeded); rows in `modes` order.
 
-    Each mode: one warm-up call, then `runs` timed calls cycling through `cases` (extra untimed calls cover cases
+    Each mode: two warm-up calls, then `runs` timed calls cycling through `cases` (extra untimed calls cover cases
     not reached when runs < len(cases)). margin_m: window context (m); None = the backbone's exact margin, else
     APPROX_MARGIN_M. optimize: frozen TorchScript nets (`optimize_for_cpu`, as deployed) for every mode.
     Raises ValueError for an unknown mode or no cases."""

@@ -8,6 +8,7 @@ torch threads is the caller's business (torch.set_num_threads).
 
 from __future__ import annotations
 
+import ctypes
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -22,6 +23,21 @@ ROLES = ("grasp", "push")
 # QNet methods and attributes that `PolicyNets` uses: kept when a net is frozen
 PRESERVED = ["rotate_inputs", "q_from_rotated", "rotate_inputs_window", "q_from_rotated_window", "forward_indexed",
              "use_mask", "num_rotations", "exact_margin", "config_json"]
+
+
+_M_TRIM_THRESHOLD, _M_MMAP_MAX = -1, -4  # glibc mallopt parameters
+
+
+def keep_freed_memory() -> bool:
+    """glibc only: serve every allocation from the heap and never give freed memory back to the OS (mallopt
+    M_MMAP_MAX = 0, M_TRIM_THRESHOLD = max). Batched DenseNet activations (100+ MB each at 16 x 320 x 320) are
+    otherwise mmap'ed and page-faulted anew on every call: measured 315 -> 170 ms per image at batch 16 (1 thread).
+    Process-wide; the process keeps its peak memory. Returns False where glibc's mallopt is unavailable."""
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+        return bool(libc.mallopt(_M_MMAP_MAX, 0)) and bool(libc.mallopt(_M_TRIM_THRESHOLD, 2**31 - 1))
+    except (OSError, AttributeError):
+        return False
 
 
 def optimize_for_cpu(net: nn.Module) -> torch.jit.ScriptModule:
@@ -60,13 +76,16 @@ def target_window(mask: np.ndarray, margin: int) -> Window | None:
 class PolicyNets:
     """The grasp net and the push net (eager `QNet` or scripted, not traced: `rotate_inputs`/`q_from_rotated` are
     used); `metadata` holds each net's export metadata (empty for eager nets). optimize: use frozen copies
-    (`optimize_for_cpu`; a snapshot of the weights, so leave it off for nets that are still training)."""
+    (`optimize_for_cpu`; a snapshot of the weights, so leave it off for nets that are still training) and call
+    `keep_freed_memory()` (process-wide allocator setting: meant for a process that serves the policy)."""
 
     def __init__(self, grasp: nn.Module, push: nn.Module, metadata: dict[str, dict[str, Any]] | None = None,
                  device: str | torch.device = "cpu", optimize: bool = False) -> None:
         self.device = torch.device(device)
         nets = {"grasp": grasp.to(self.device).eval(), "push": push.to(self.device).eval()}
         self.nets: dict[str, nn.Module] = {k: optimize_for_cpu(v) if optimize else v for k, v in nets.items()}
+        if optimize:
+            keep_freed_memory()
         self.metadata = metadata or {role: {} for role in ROLES}
         rots = {int(net.num_rotations) for net in self.nets.values()}
         if len(rots) != 1:

@@ -33,7 +33,7 @@ class TrainConfig:
     epsilon_end: float = _f(0.1, "final exploration probability")
     epsilon_decay: int = _f(1000, "iterations over which epsilon decays linearly")
     replay_capacity: int = _f(2000, "replay buffer capacity (transitions, disk-backed)")
-    replay_samples: int = _f(2, "prioritised replay updates per iteration")
+    replay_samples: int = _f(3, "prioritised replay samples learned with each new transition (one batch)")
     grasp_threshold: float = _f(0.5, "grasp when the masked max Q_g exceeds this (push stage: grasp early)")
     max_pushes: int = _f(5, "push stage: pushes before a grasp is forced")
     max_actions: int = _f(30, "actions per episode before the scene is reset")

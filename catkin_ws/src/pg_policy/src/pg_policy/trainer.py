@@ -2,7 +2,7 @@
 
 One iteration = observe -> masked Q maps -> epsilon-greedy decision -> execute -> reward (with hindsight
 relabelling) -> store in prioritised replay -> Huber loss on the executed pixel (grasps also at rotation r + R/2)
-for the new transition and `replay_samples` replayed ones -> log. Checkpoints (nets, optimisers, counters, RNG
+for the new transition batched with `replay_samples` replayed ones -> log. Checkpoints (nets, optimisers, counters, RNG
 state; the replay lives on disk) every `checkpoint_every` iterations: rerunning the same command resumes.
 """
 
@@ -98,21 +98,29 @@ class Trainer:
         future = max(qtensor.masked_max(q["grasp"], t.next_mask), qtensor.masked_max(q["push"], t.next_mask))
         return t.reward + self.cfg.gamma * future
 
-    def learn(self, t: Transition) -> tuple[float, float]:
-        """One Huber step on the executed pixel; returns (loss, |TD error|)."""
-        net, opt = self.nets[t.primitive], self.opts[t.primitive]
-        label = self._label(t)
+    def learn(self, batch: list[Transition]) -> tuple[float, list[float]]:
+        """One Huber step on the executed pixels of a batch of transitions of one primitive (a grasp also at
+        rotation r + R/2: the parallel jaw is symmetric). Returns (mean loss, |TD error| per transition)."""
+        role = batch[0].primitive
+        net, opt = self.nets[role], self.opts[role]
+        labels = [self._label(t) for t in batch]
+        half = self.cfg.rotations // 2
+        items = [(k, t, r) for k, t in enumerate(batch)
+                 for r in ([t.rotation, (t.rotation + half) % self.cfg.rotations] if role == "grasp" else [t.rotation])]
+        cols = [qtensor.tensors(t.color, t.height, t.mask) for _, t, _ in items]
+        color, depth, mask = (torch.cat([c[i] for c in cols]) for i in range(3))
         net.train()
-        rots = [t.rotation]
-        if t.primitive == "grasp":
-            rots.append((t.rotation + self.cfg.rotations // 2) % self.cfg.rotations)  # symmetric parallel jaw
-        q = qtensor.forward(net, t.color, t.height, t.mask, rots)[0, :, t.row, t.col]
-        target = torch.full_like(q, label)
-        loss = torch.nn.functional.smooth_l1_loss(q, target, reduction="sum")
+        q = net.forward_indexed(color, depth, mask, torch.tensor([r for _, _, r in items], dtype=torch.int64))
+        pred = torch.stack([q[i, t.row, t.col] for i, (_, t, _) in enumerate(items)])
+        target = torch.tensor([labels[k] for k, _, _ in items], dtype=pred.dtype)
+        loss = torch.nn.functional.smooth_l1_loss(pred, target, reduction="mean")
         opt.zero_grad()
         loss.backward()
         opt.step()
-        return float(loss.detach()), float(abs(q[0].detach().item() - label))
+        first = {}
+        for i, (k, _, _) in enumerate(items):
+            first.setdefault(k, abs(float(pred[i].detach()) - labels[k]))
+        return float(loss.detach()), [first[k] for k in range(len(batch))]
 
     # -- acting ------------------------------------------------------------------------------------------------
     def _goal(self, obs) -> tuple[np.ndarray, str | None]:
@@ -192,13 +200,12 @@ class Trainer:
                            nxt.heightmap.height, nmask, done=False)
         loss = 0.0
         if t.primitive in self.replay:
-            loss, td = self.learn(t)
-            self.replay[t.primitive].add(t, td)
-            for _ in range(cfg.replay_samples):
-                i = self.replay[t.primitive].sample(self.rng)
-                if i is not None:
-                    _, td_i = self.learn(self.replay[t.primitive].get(i))
-                    self.replay[t.primitive].update_priority(i, td_i)
+            buf = self.replay[t.primitive]
+            picks = [i for i in (buf.sample(self.rng) for _ in range(cfg.replay_samples)) if i is not None]
+            loss, tds = self.learn([t] + [buf.get(i) for i in picks])
+            buf.add(t, tds[0])
+            for i, td in zip(picks, tds[1:], strict=True):
+                buf.update_priority(i, td)
         row_log = {"iteration": self.iteration, "episode": self.episode, "primitive": primitive, "rotation": rot,
                    "row": row, "col": col, "explored": int(explored),
                    "q": round(float(q[primitive][rot, row, col]), 4) if q is not None else "",
