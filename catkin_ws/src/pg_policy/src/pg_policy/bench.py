@@ -11,8 +11,10 @@ Modes (all with the same weights and the same heightmaps):
   DenseNet-121's receptive field (2071 px) exceeds the map, so its window (default margin 0.1 m) is approximate.
 - ``window+early``: both speed-ups.
 Each mode is timed over `runs` calls (after two warm-up calls) cycling through the heightmaps of the shipped scenes
-(ground-truth target masks); agreement = % of heightmaps whose decision (primitive, rotation, row, col) equals
-``batched``'s. The decision rule is `pg_policy.decision.decide`.
+(ground-truth target masks), the modes interleaved call by call so that changes of machine load hit all alike; the
+CPU column (process time, all threads) is less sensitive to other load than wall time. Agreement = % of heightmaps
+whose decision (primitive, rotation, row, col) equals ``batched``'s. The decision rule is
+`pg_policy.decision.decide`.
 """
 
 from __future__ import annotations
@@ -179,9 +181,9 @@ def bench_variant(variant: str, cases: Sequence[Case], runs: int, modes: Sequenc
                   log: Callable[[str], None] = lambda s: None) -> list[Row]:
     """Time and compare every mode for one backbone with random weights (seeded); rows in `modes` order.
 
-    Each mode: two warm-up calls, then `runs` timed calls cycling through `cases` (extra untimed calls cover cases
-    not reached when runs < len(cases)). margin_m: window context (m); None = the backbone's exact margin, else
-    APPROX_MARGIN_M. optimize: frozen TorchScript nets (`optimize_for_cpu`, as deployed) for every mode.
+    Each mode: two warm-up calls, then `runs` timed calls cycling through `cases`, modes interleaved (extra untimed
+    calls cover cases not reached when runs < len(cases)). margin_m: window context (m); None = the backbone's exact
+    margin, else APPROX_MARGIN_M. optimize: frozen TorchScript nets (`optimize_for_cpu`, as deployed) for every mode.
     Raises ValueError for an unknown mode or no cases."""
     unknown = [m for m in modes if m not in MODES]
     if unknown or not cases:
@@ -197,23 +199,25 @@ def bench_variant(variant: str, cases: Sequence[Case], runs: int, modes: Sequenc
     cpu: dict[str, list[float]] = {}
     decisions: dict[str, dict[str, tuple]] = {}
     fired: dict[str, int] = {}
-    for mode in [REFERENCE] + [m for m in modes if m != REFERENCE]:
-        fn = MODES[mode]
+    order = [REFERENCE] + [m for m in modes if m != REFERENCE]
+    for mode in order:
         for _ in range(2):  # warm-up: allocator, oneDNN primitives, TorchScript's profiling runs
-            fn(decider, cases[0].heightmap, cases[0].target)
-        decider.early_fired = 0
-        times[mode], cpu[mode], decisions[mode] = [], [], {}
-        for i in range(max(runs, len(cases))):
-            case = cases[i % len(cases)]
+            MODES[mode](decider, cases[0].heightmap, cases[0].target)
+        times[mode], cpu[mode], decisions[mode], fired[mode] = [], [], {}, 0
+    for i in range(max(runs, len(cases))):  # modes interleaved: a change of machine load hits them alike
+        case = cases[i % len(cases)]
+        for mode in order:
+            decider.early_fired = 0
             t0, c0 = time.perf_counter(), time.process_time()
-            d = fn(decider, case.heightmap, case.target)
+            d = MODES[mode](decider, case.heightmap, case.target)
             dt, dc = time.perf_counter() - t0, time.process_time() - c0
             if i < runs:
                 times[mode].append(dt * 1000.0)
                 cpu[mode].append(dc * 1000.0)
+            fired[mode] += decider.early_fired
             decisions[mode].setdefault(case.name, _key(d))
-        fired[mode] = decider.early_fired
-        log(f"{variant} {mode}: median {statistics.median(times[mode]):.1f} ms")
+        if i + 1 == runs:
+            log(f"{variant}: " + ", ".join(f"{m} {statistics.median(times[m]):.1f} ms" for m in order))
     base = statistics.median(times[BASELINE]) if BASELINE in times else float("nan")
     rows = []
     for mode in modes:
