@@ -32,7 +32,7 @@ class World:
     """A simulated cell. Use as a context manager or call close(); `gui=True` opens the PyBullet window."""
 
     def __init__(self, geometry: Geometry | None = None, gui: bool = False, time_step: float = 1 / 240,
-                 solver_iterations: int = 20) -> None:
+                 solver_iterations: int = 50) -> None:
         self.geometry = geometry or load()
         self.client = p.connect(p.GUI if gui else p.DIRECT)
         p.setGravity(0, 0, -9.81, physicsClientId=self.client)
