@@ -7,7 +7,9 @@
 #              cmake --build catkin_ws/build --target run_tests && catkin_test_results catkin_ws/build/test_results
 #              (or `catkin_make -C catkin_ws run_tests`, which re-runs CMake once; or
 #               `cd catkin_ws/build && ctest --output-on-failure`)
-# Environment: PG_BUILD_JOBS (default 2), PG_BUILD_TYPE (default Release), PG_PYTHON (default $REPO/.venv/bin/python).
+# Environment: PG_BUILD_JOBS (default 2), PG_BUILD_TYPE (default Release), PG_PYTHON (default $REPO/.venv/bin/python),
+#   PG_BUILD_DIR / PG_DEVEL_DIR (default catkin_ws/build, catkin_ws/devel: a separate pair lets two developers build
+#   the same source tree side by side).
 set -euo pipefail
 
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -15,6 +17,8 @@ WS="$REPO/catkin_ws"
 PYTHON="${PG_PYTHON:-$REPO/.venv/bin/python}"
 JOBS="${PG_BUILD_JOBS:-2}"
 BUILD_TYPE="${PG_BUILD_TYPE:-Release}"
+BUILD_DIR="${PG_BUILD_DIR:-$WS/build}"
+DEVEL_DIR="${PG_DEVEL_DIR:-$WS/devel}"
 
 die() { echo "catkin_build.sh: $*" >&2; exit 1; }
 
@@ -28,7 +32,8 @@ unset CMAKE_PREFIX_PATH ROS_PACKAGE_PATH
 export ROS_PYTHON_VERSION=3
 
 start=$(date +%s)
-catkin_make -C "$WS" -j"$JOBS" \
+catkin_make -C "$WS" --build "$BUILD_DIR" -j"$JOBS" \
+  -DCATKIN_DEVEL_PREFIX="$DEVEL_DIR" \
   -DPYTHON_EXECUTABLE="$PYTHON" \
   -DPython3_EXECUTABLE="$PYTHON" \
   -DCMAKE_BUILD_TYPE="$BUILD_TYPE" \
@@ -36,5 +41,5 @@ catkin_make -C "$WS" -j"$JOBS" \
   "$@"
 # Test binaries are not part of `all`; build them now so run_tests/ctest only run. (Not a second catkin_make: with
 # other arguments it would re-run CMake, and again on the next full build.)
-cmake --build "$WS/build" --target tests -- -j"$JOBS"
+cmake --build "$BUILD_DIR" --target tests -- -j"$JOBS"
 echo "catkin_build.sh: built $WS in $(( $(date +%s) - start )) s"

@@ -1,0 +1,35 @@
+"""Integration tier: every rostest launch file of the project, each against its own ROS master (random port).
+
+Discovered files: catkin_ws/src/<pkg>/test/*.test and tests/ros/*.test. Each runs as
+`source scripts/ros_env.sh && rostest --text FILE` (devel space sourced, the venv's Python first on PATH), bounded
+by ROSTEST_TIMEOUT_S. Test nodes named in those files are unittest scripts called rt_*.py (so that pytest itself
+does not collect them). Skipped, with the reason, when the catkin devel space was not built.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+DEVEL = Path(os.environ.get("PG_DEVEL_DIR", REPO / "catkin_ws" / "devel"))
+ROSTEST_TIMEOUT_S = 900
+TEST_FILES = sorted((REPO / "catkin_ws" / "src").glob("*/test/*.test")) + sorted((REPO / "tests" / "ros").glob("*.test"))
+
+
+@pytest.mark.skipif(not (DEVEL / "setup.bash").exists(), reason=f"no catkin devel space at {DEVEL} (make build)")
+@pytest.mark.parametrize("test_file", TEST_FILES, ids=[f"{f.parent.parent.name}/{f.name}" for f in TEST_FILES])
+def test_rostest(test_file: Path, tmp_path: Path) -> None:
+    env = dict(os.environ, ROS_LOG_DIR=str(tmp_path / "log"), ROS_HOME=str(tmp_path / "ros_home"))
+    cmd = f'source "{REPO}/scripts/ros_env.sh" && rostest --text "{test_file}"'
+    try:
+        proc = subprocess.run(["bash", "-c", cmd], cwd=REPO, env=env, capture_output=True, text=True,
+                              timeout=ROSTEST_TIMEOUT_S)
+    except subprocess.TimeoutExpired as exc:
+        out = (exc.stdout or b"")[-6000:] if isinstance(exc.stdout, bytes) else (exc.stdout or "")[-6000:]
+        pytest.fail(f"rostest {test_file.name} ran past {ROSTEST_TIMEOUT_S} s\n{out}")
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 0 and "FAILURE" not in proc.stdout, f"rostest {test_file.name} failed:\n{out[-12000:]}"
