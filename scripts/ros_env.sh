@@ -9,11 +9,15 @@ if [ ! -f "$_pg_devel/setup.bash" ]; then
   return 1 2>/dev/null || exit 1
 fi
 export ROS_PYTHON_VERSION=3
+# catkin's setup scripts read unset variables: allow that while sourcing them, even under `set -u`.
+_pg_nounset=$([[ $- == *u* ]] && echo 1 || true)
+set +u
 # shellcheck disable=SC1091
 source "$_pg_devel/setup.bash"
+[ -n "$_pg_nounset" ] && set -u
 case ":$PATH:" in
   *":$_pg_repo/.venv/bin:"*) ;;
   *) export PATH="$_pg_repo/.venv/bin:$PATH" ;;
 esac
 export PG_REPO="$_pg_repo"
-unset _pg_repo _pg_devel
+unset _pg_repo _pg_devel _pg_nounset

@@ -12,5 +12,8 @@ echo "== ruff"
 echo "== gtest (catkin, via ctest)"
 ctest --test-dir catkin_ws/build --output-on-failure
 
-echo "== pytest"
+echo "== pytest (core, message and bag tests; rostests via tests/test_rostests.py)"
+# The devel space puts pg_msgs on the Python path for the message tests; rostests source it themselves.
+# shellcheck disable=SC1091
+source "$repo/scripts/ros_env.sh"
 "$py" -m pytest -q -p no:cacheprovider "$@"

@@ -17,6 +17,7 @@ COMMANDS: dict[str, str] = {
     "infer": "pg_policy.infer_cli:add_parser",
     "eval": "pg_policy.eval_cli:add_parser",
     "bench": "pg_policy.bench_cli:add_parser",
+    "replay": "pg_policy.replay_cli:add_parser",
 }
 
 

@@ -1,0 +1,150 @@
+"""Conversions between pg_policy's core types and ROS messages (no rospy: message classes only).
+
+- pg_msgs/Heightmap <-> pg_policy.heightmap.Heightmap (rgb8 colour, 32FC1 height in metres above z_min, mono8 valid).
+- pg_policy.target_loop.ActionRecord -> pg_msgs/Decision.
+- Q map / decision overlay image (rgb8, one pixel per heightmap cell, row 0 = y_min) for /pg/q_map.
+- visualization_msgs/MarkerArray of the chosen action and the target outline in `world`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import cv2
+import numpy as np
+
+from pg_policy.heightmap import Heightmap
+
+WORLD = "world"
+
+
+# -- heightmap ----------------------------------------------------------------------------------------------------
+def _image_array(img: Any, dtype: Any, channels: int) -> np.ndarray:
+    """(H, W[, C]) array of a sensor_msgs/Image; ValueError on a size/step mismatch."""
+    itemsize = np.dtype(dtype).itemsize * channels
+    if img.step < img.width * itemsize or len(img.data) < img.step * img.height:
+        raise ValueError(f"image {img.width}x{img.height} step {img.step} holds {len(img.data)} bytes: malformed")
+    arr = np.frombuffer(bytes(img.data), dtype=np.uint8).reshape(img.height, img.step)[:, : img.width * itemsize]
+    arr = arr.copy().view(dtype).reshape(img.height, img.width, channels)
+    if img.is_bigendian != (np.dtype(dtype).byteorder == ">"):
+        arr = arr.byteswap() if np.dtype(dtype).itemsize > 1 else arr
+    return arr if channels > 1 else arr[:, :, 0]
+
+
+def heightmap_from_msg(msg: Any) -> Heightmap:
+    """pg_msgs/Heightmap -> Heightmap; ValueError for wrong encodings or sizes."""
+    for name, enc in (("color", "rgb8"), ("height", "32FC1"), ("valid", "mono8")):
+        got = getattr(msg, name).encoding
+        if got != enc:
+            raise ValueError(f"heightmap {name} encoding is {got!r}, expected {enc!r}")
+    color = _image_array(msg.color, np.uint8, 3)
+    height = _image_array(msg.height, np.float32, 1)
+    valid = _image_array(msg.valid, np.uint8, 1) > 0
+    if not (color.shape[:2] == height.shape == valid.shape):
+        raise ValueError(f"heightmap images differ in size: {color.shape[:2]} {height.shape} {valid.shape}")
+    bounds = np.array([[msg.x_min, msg.x_max], [msg.y_min, msg.y_max], [msg.z_min, msg.z_max]], dtype=np.float64)
+    return Heightmap(color, height.astype(np.float32), valid, float(msg.resolution), bounds)
+
+
+def image_msg(arr: np.ndarray, encoding: str, header: Any) -> Any:
+    from sensor_msgs.msg import Image
+
+    arr = np.ascontiguousarray(arr)
+    channels = arr.shape[2] if arr.ndim == 3 else 1
+    return Image(header=header, height=arr.shape[0], width=arr.shape[1], encoding=encoding, is_bigendian=0,
+                 step=arr.shape[1] * channels * arr.dtype.itemsize, data=arr.tobytes())
+
+
+def heightmap_to_msg(hm: Heightmap, header: Any) -> Any:
+    """Heightmap -> pg_msgs/Heightmap (header.frame_id should be `world`)."""
+    from pg_msgs.msg import Heightmap as HeightmapMsg
+
+    b = hm.bounds
+    return HeightmapMsg(header=header, resolution=hm.resolution, x_min=b[0, 0], x_max=b[0, 1], y_min=b[1, 0],
+                        y_max=b[1, 1], z_min=b[2, 0], z_max=b[2, 1], color=image_msg(hm.color, "rgb8", header),
+                        height=image_msg(hm.height.astype(np.float32), "32FC1", header),
+                        valid=image_msg(hm.valid.astype(np.uint8) * 255, "mono8", header))
+
+
+# -- decisions ----------------------------------------------------------------------------------------------------
+def decision_msg(rec: Any, stamp: Any) -> Any:
+    """pg_policy.target_loop.ActionRecord -> pg_msgs/Decision stamped `stamp` (rospy.Time)."""
+    import rospy
+    from geometry_msgs.msg import Point
+    from pg_msgs.msg import Decision as DecisionMsg
+
+    d, ex = rec.decision, rec.execution
+    msg = DecisionMsg()
+    msg.header.frame_id, msg.header.stamp = WORLD, stamp
+    msg.heightmap_stamp = rospy.Time.from_sec(rec.heightmap_stamp)
+    msg.target, msg.policy = rec.target, rec.policy
+    msg.episode, msg.action_index = rec.episode, rec.index
+    msg.primitive = DecisionMsg.GRASP if d.primitive == "grasp" else DecisionMsg.PUSH
+    msg.row, msg.col, msg.rotation, msg.yaw = int(d.row), int(d.col), int(d.rotation), float(d.yaw)
+    msg.q_value, msg.grasp_q, msg.grasp_threshold = float(d.q), float(d.grasp_q), float(rec.grasp_threshold)
+    msg.position = Point(float(d.x), float(d.y), float(d.z))
+    msg.target_pixels = int(rec.target_pixels)
+    if ex is not None:
+        msg.executed, msg.success, msg.arm, msg.grasped = True, ex.success, ex.arm, ex.grasped
+        msg.target_grasped, msg.duration, msg.message = rec.target_grasped, ex.duration, ex.message
+    return msg
+
+
+def primitive_name(msg: Any) -> str:
+    """"grasp" / "push" of a pg_msgs/Decision."""
+    return "grasp" if msg.primitive == msg.GRASP else "push"
+
+
+# -- visualisation ------------------------------------------------------------------------------------------------
+def overlay(hm: Heightmap, target: np.ndarray, rec: Any, q: dict[str, np.ndarray]) -> np.ndarray:
+    """(H, W, 3) uint8 RGB: the chosen primitive's Q map (max over rotations, jet) when the policy has Q maps, else
+    the colour heightmap; target outline in white, the action as an arrow (push) or a finger line (grasp)."""
+    d = rec.decision
+    maps = q.get(d.primitive)
+    if maps is not None:
+        qmax = np.asarray(maps).max(axis=0)
+        lo, hi = float(qmax.min()), float(qmax.max())
+        norm = ((qmax - lo) / (hi - lo) * 255 if hi > lo else np.zeros_like(qmax)).astype(np.uint8)
+        img = cv2.cvtColor(cv2.applyColorMap(norm, cv2.COLORMAP_JET), cv2.COLOR_BGR2RGB)
+    else:
+        img = hm.color.copy()
+    contours, _ = cv2.findContours(target.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    cv2.drawContours(img, contours, -1, (255, 255, 255), 1)
+    dx, dy = 12 * math.cos(d.yaw), 12 * math.sin(d.yaw)  # cols = x, rows = y
+    c, r = float(d.col), float(d.row)
+    if d.primitive == "grasp":
+        cv2.line(img, (round(c - dx), round(r - dy)), (round(c + dx), round(r + dy)), (255, 0, 0), 2)
+    else:
+        cv2.arrowedLine(img, (round(c), round(r)), (round(c + 2 * dx), round(r + 2 * dy)), (0, 255, 255), 2)
+    return img
+
+
+def markers(hm: Heightmap, target: np.ndarray, rec: Any, stamp: Any) -> Any:
+    """MarkerArray in `world`: the action (arrow along yaw; red grasp, cyan push) and the target outline."""
+    from geometry_msgs.msg import Point
+    from visualization_msgs.msg import Marker, MarkerArray
+
+    d = rec.decision
+    arrow = Marker(type=Marker.ARROW, action=Marker.ADD, ns="pg_action", id=0)
+    arrow.header.frame_id, arrow.header.stamp = WORLD, stamp
+    length = 0.13 if d.primitive == "push" else 0.06
+    start = Point(d.x, d.y, d.z + 0.005) if d.primitive == "push" else Point(
+        d.x - length / 2 * math.cos(d.yaw), d.y - length / 2 * math.sin(d.yaw), d.z + 0.005)
+    arrow.points = [start, Point(start.x + length * math.cos(d.yaw), start.y + length * math.sin(d.yaw), start.z)]
+    arrow.scale.x, arrow.scale.y, arrow.scale.z = 0.008, 0.016, 0.02
+    arrow.color.r, arrow.color.g, arrow.color.b, arrow.color.a = (1.0, 0.1, 0.1, 1.0) if d.primitive == "grasp" \
+        else (0.1, 0.9, 0.9, 1.0)
+    outline = Marker(type=Marker.LINE_LIST, action=Marker.ADD, ns="pg_target", id=0)
+    outline.header = arrow.header
+    outline.scale.x = 0.003
+    outline.color.r, outline.color.g, outline.color.b, outline.color.a = 1.0, 1.0, 1.0, 1.0
+    contours, _ = cv2.findContours(target.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    res, b = hm.resolution, hm.bounds
+    for contour in contours:
+        pts = contour[:, 0, :]
+        for (c0, r0), (c1, r1) in zip(pts, np.roll(pts, -1, axis=0), strict=True):
+            for c, r in ((c0, r0), (c1, r1)):
+                z = float(hm.height[r, c]) + b[2, 0] + 0.002
+                outline.points.append(Point(b[0, 0] + (c + 0.5) * res, b[1, 0] + (r + 0.5) * res, z))
+    return MarkerArray(markers=[arrow, outline])
