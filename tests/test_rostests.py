@@ -16,8 +16,9 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 DEVEL = Path(os.environ.get("PG_DEVEL_DIR", REPO / "catkin_ws" / "devel"))
-ROSTEST_TIMEOUT_S = 900
-TEST_FILES = sorted((REPO / "catkin_ws" / "src").glob("*/test/*.test")) + sorted((REPO / "tests" / "ros").glob("*.test"))
+ROSTEST_TIMEOUT_S = 1500
+TEST_FILES = sorted((REPO / "catkin_ws" / "src").glob("*/test/*.test")) + sorted(
+    (REPO / "tests" / "ros").glob("*.test"))
 
 
 @pytest.mark.skipif(not (DEVEL / "setup.bash").exists(), reason=f"no catkin devel space at {DEVEL} (make build)")
