@@ -33,4 +33,5 @@ def test_rostest(test_file: Path, tmp_path: Path) -> None:
         out = (exc.stdout or b"")[-6000:] if isinstance(exc.stdout, bytes) else (exc.stdout or "")[-6000:]
         pytest.fail(f"rostest {test_file.name} ran past {ROSTEST_TIMEOUT_S} s\n{out}")
     out = proc.stdout + proc.stderr
-    assert proc.returncode == 0 and "FAILURE" not in proc.stdout, f"rostest {test_file.name} failed:\n{out[-12000:]}"
+    ok = proc.returncode == 0 and "RESULT: SUCCESS" in proc.stdout
+    assert ok, f"rostest {test_file.name} failed (exit {proc.returncode}):\n{out[-12000:]}"

@@ -63,6 +63,20 @@ class ArmDriver:
             physicsClientId=self.client_,
         )
 
+    def command(self, q: Sequence[float], qd: Sequence[float], max_velocity: float | None = None) -> None:
+        """Stream one joint position (rad) / velocity (rad/s) target to the six motors; does not step physics.
+
+        With ``max_velocity`` (rad/s) the motors never drive a joint faster than that, even while catching up.
+        """
+        if max_velocity is None:
+            self._command(np.asarray(q, dtype=np.float64), np.asarray(qd, dtype=np.float64))
+            return
+        for j, qi, vi, f in zip(self.arm.joints, q, qd, self.effort_, strict=True):
+            p.setJointMotorControl2(
+                self.body_, j, p.POSITION_CONTROL, targetPosition=float(qi), targetVelocity=float(vi), force=f,
+                positionGain=0.3, velocityGain=1.0, maxVelocity=max_velocity, physicsClientId=self.client_,
+            )
+
     def _tick(self) -> float:
         t = self.step_()
         if t > self.deadline_:
