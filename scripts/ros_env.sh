@@ -15,6 +15,8 @@ set +u
 # shellcheck disable=SC1091
 source "$_pg_devel/setup.bash"
 [ -n "$_pg_nounset" ] && set -u
+# tests/ros is the pg_tests package of integration test nodes (not built, found through ROS_PACKAGE_PATH).
+export ROS_PACKAGE_PATH="$_pg_repo/tests/ros:${ROS_PACKAGE_PATH:-}"
 case ":$PATH:" in
   *":$_pg_repo/.venv/bin:"*) ;;
   *) export PATH="$_pg_repo/.venv/bin:$PATH" ;;
