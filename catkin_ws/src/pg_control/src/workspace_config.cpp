@@ -2,7 +2,9 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <array>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -58,6 +60,25 @@ class Reader {
     return iv;
   }
 
+  // A list of exactly N numbers.
+  template <std::size_t N>
+  std::array<double, N> numbers(const YAML::Node& parent, const std::string& key, const std::string& where) const {
+    const std::string name = where + key;
+    const YAML::Node node = child(parent, key, where);
+    if (!node.IsSequence() || node.size() != N) {
+      fail("'" + name + "' must be a list of " + std::to_string(N) + " numbers");
+    }
+    std::array<double, N> out{};
+    for (std::size_t i = 0; i < N; ++i) out[i] = toNumber(node[i], name + "[" + std::to_string(i) + "]");
+    return out;
+  }
+
+  std::string text(const YAML::Node& parent, const std::string& key, const std::string& where) const {
+    const YAML::Node node = child(parent, key, where);
+    if (!node.IsScalar() || node.Scalar().empty()) fail("'" + where + key + "' must be a non-empty string");
+    return node.Scalar();
+  }
+
   void requirePositive(double v, const std::string& name) const {
     if (!(v > 0.0)) fail("'" + name + "' must be > 0");
   }
@@ -87,6 +108,51 @@ class Reader {
   std::string source_;
 };
 
+// Directory part of a path ("" when there is none).
+std::string dirName(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  if (slash == std::string::npos) return "";
+  return slash == 0 ? std::string("/") : path.substr(0, slash);
+}
+
+RobotParams readRobot(const Reader& r, const YAML::Node& root, const std::string& base_dir) {
+  RobotParams robot;
+  const YAML::Node sec = r.child(root, "robot", "");
+  robot.urdf = r.text(sec, "urdf", "robot.");
+  robot.urdf_path = (robot.urdf[0] == '/' || base_dir.empty()) ? robot.urdf : base_dir + "/" + robot.urdf;
+  const YAML::Node dh = r.child(sec, "dh", "robot.");
+  robot.dh_d = r.numbers<6>(dh, "d", "robot.dh.");
+  robot.dh_a = r.numbers<6>(dh, "a", "robot.dh.");
+  robot.dh_alpha = r.numbers<6>(dh, "alpha", "robot.dh.");
+  const YAML::Node names = r.child(sec, "joint_names", "robot.");
+  if (!names.IsSequence() || names.size() != 6) r.fail("'robot.joint_names' must be a list of 6 names");
+  for (const auto& n : names) robot.joint_names.push_back(n.as<std::string>());
+  robot.joint_lower = r.numbers<6>(sec, "joint_lower", "robot.");
+  robot.joint_upper = r.numbers<6>(sec, "joint_upper", "robot.");
+  for (std::size_t i = 0; i < 6; ++i) {
+    if (!(robot.joint_lower[i] < robot.joint_upper[i])) r.fail("'robot.joint_lower' must be < 'robot.joint_upper'");
+  }
+  robot.joint_velocity_limit = r.number(sec, "joint_velocity_limit", "robot.");
+  r.requirePositive(robot.joint_velocity_limit, "robot.joint_velocity_limit");
+  const YAML::Node arms = r.child(sec, "arms", "robot.");
+  if (!arms.IsMap() || arms.size() == 0) r.fail("'robot.arms' must be a non-empty mapping of arm name -> spec");
+  for (const auto& kv : arms) {
+    ArmSpec arm;
+    arm.name = kv.first.as<std::string>();
+    const std::string w = "robot.arms." + arm.name + ".";
+    arm.xyz = r.numbers<3>(kv.second, "xyz", w);
+    arm.rpy = r.numbers<3>(kv.second, "rpy", w);
+    arm.home = r.numbers<6>(kv.second, "home", w);
+    const std::array<double, 3> branch = r.numbers<3>(kv.second, "ik_branch", w);
+    for (std::size_t i = 0; i < 3; ++i) {
+      if (branch[i] != 1.0 && branch[i] != -1.0) r.fail("'" + w + "ik_branch' must hold three signs (1 or -1)");
+      arm.ik_branch[i] = static_cast<int>(branch[i]);
+    }
+    robot.arms.push_back(arm);
+  }
+  return robot;
+}
+
 }  // namespace
 
 WorkspaceConfig WorkspaceConfig::fromFile(const std::string& path) {
@@ -98,20 +164,23 @@ WorkspaceConfig WorkspaceConfig::fromFile(const std::string& path) {
   } catch (const YAML::Exception& e) {
     throw std::runtime_error("workspace config " + path + ": YAML error: " + e.what());
   }
-  return fromNode(root, path);
+  // src/pg_policy/config/workspace.yaml -> src/
+  return fromNode(root, path, dirName(dirName(dirName(path))));
 }
 
-WorkspaceConfig WorkspaceConfig::fromString(const std::string& yaml_text, const std::string& source) {
+WorkspaceConfig WorkspaceConfig::fromString(const std::string& yaml_text, const std::string& source,
+                                            const std::string& base_dir) {
   YAML::Node root;
   try {
     root = YAML::Load(yaml_text);
   } catch (const YAML::Exception& e) {
     throw std::runtime_error("workspace config " + source + ": YAML error: " + e.what());
   }
-  return fromNode(root, source);
+  return fromNode(root, source, base_dir);
 }
 
-WorkspaceConfig WorkspaceConfig::fromNode(const YAML::Node& root, const std::string& source) {
+WorkspaceConfig WorkspaceConfig::fromNode(const YAML::Node& root, const std::string& source,
+                                          const std::string& base_dir) {
   const Reader r(source);
   if (!root.IsMap()) r.fail("not a YAML mapping");
 
@@ -144,7 +213,9 @@ WorkspaceConfig WorkspaceConfig::fromNode(const YAML::Node& root, const std::str
   prim.push_depth = r.number(pr, "push_depth", p);
   prim.push_min_z = r.number(pr, "push_min_z", p);
   prim.push_window_px = r.integer(pr, "push_window_px", p);
+  prim.transit_height = r.number(pr, "transit_height", p);
   prim.cartesian_speed = r.number(pr, "cartesian_speed", p);
+  prim.push_speed = r.number(pr, "push_speed", p);
   prim.waypoint_step = r.number(pr, "waypoint_step", p);
   prim.time_budget = r.number(pr, "time_budget", p);
   r.requireNonNegative(prim.approach_height, p + "approach_height");
@@ -154,6 +225,7 @@ WorkspaceConfig WorkspaceConfig::fromNode(const YAML::Node& root, const std::str
   r.requireNonNegative(prim.push_depth, p + "push_depth");
   r.requireNonNegative(prim.push_window_px, p + "push_window_px");
   r.requirePositive(prim.cartesian_speed, p + "cartesian_speed");
+  r.requirePositive(prim.push_speed, p + "push_speed");
   r.requirePositive(prim.waypoint_step, p + "waypoint_step");
   r.requirePositive(prim.time_budget, p + "time_budget");
 
@@ -162,8 +234,19 @@ WorkspaceConfig WorkspaceConfig::fromNode(const YAML::Node& root, const std::str
   c.gripper_.tcp_offset = r.number(gr, "tcp_offset", "gripper.");
   r.requirePositive(c.gripper_.max_opening, "gripper.max_opening");
   r.requireNonNegative(c.gripper_.tcp_offset, "gripper.tcp_offset");
+  c.gripper_.closed_threshold = r.number(gr, "closed_threshold", "gripper.");
+  r.requireNonNegative(c.gripper_.closed_threshold, "gripper.closed_threshold");
+
+  c.robot_ = readRobot(r, root, base_dir);
 
   return c;
+}
+
+const ArmSpec* WorkspaceConfig::arm(const std::string& name) const {
+  for (const auto& a : robot_.arms) {
+    if (a.name == name) return &a;
+  }
+  return nullptr;
 }
 
 bool WorkspaceConfig::contains(double x, double y, double z) const {

@@ -36,12 +36,23 @@ const std::vector<std::string> kMinimalLines = {
     "  push_depth: 0.01",
     "  push_min_z: 0.005",
     "  push_window_px: 5",
+    "  transit_height: 0.3",
     "  cartesian_speed: 0.3",
+    "  push_speed: 0.1",
     "  waypoint_step: 0.01",
     "  time_budget: 8.0",
     "gripper:",
     "  max_opening: 0.085",
     "  tcp_offset: 0.15",
+    "  closed_threshold: 0.004",
+    "robot:",
+    "  urdf: pg_sim/urdf/pushgrasp.urdf",
+    "  dh: {d: [0.1625, 0, 0, 0.1333, 0.0997, 0.0996], a: [0, -0.425, -0.3922, 0, 0, 0], alpha: [1.57, 0, 0, 1.57, -1.57, 0]}",
+    "  joint_names: [j1, j2, j3, j4, j5, j6]",
+    "  joint_lower: [-6, -6, -3, -6, -6, -6]",
+    "  joint_upper: [6, 6, 3, 6, 6, 6]",
+    "  joint_velocity_limit: 3.14",
+    "  arms: {left: {xyz: [0, 0.5, 0], rpy: [0, 0, -1.57], home: [0, -1, 1, 0, -1, 0], ik_branch: [1, -1, 1]}}",
 };
 
 // The minimal config without the entry `dotted` ("section" drops the whole section, "section.key" one line).
@@ -96,8 +107,49 @@ TEST(WorkspaceConfig, LoadsTheSharedConfigFile) {
   EXPECT_GT(p.waypoint_step, 0.0);
   EXPECT_GT(p.time_budget, 0.0);
 
+  EXPECT_DOUBLE_EQ(p.transit_height, 0.30);
+  EXPECT_DOUBLE_EQ(p.push_speed, 0.1);
+
   EXPECT_DOUBLE_EQ(c.gripper().max_opening, 0.085);
   EXPECT_GT(c.gripper().tcp_offset, 0.0);
+  EXPECT_DOUBLE_EQ(c.gripper().closed_threshold, 0.004);
+
+  const RobotParams& r = c.robot();  // DESIGN.md section 3: UR5e
+  EXPECT_DOUBLE_EQ(r.dh_d[0], 0.1625);
+  EXPECT_DOUBLE_EQ(r.dh_a[1], -0.425);
+  EXPECT_DOUBLE_EQ(r.dh_a[2], -0.3922);
+  EXPECT_DOUBLE_EQ(r.dh_d[3], 0.1333);
+  EXPECT_DOUBLE_EQ(r.dh_d[4], 0.0997);
+  EXPECT_DOUBLE_EQ(r.dh_d[5], 0.0996);
+  EXPECT_NEAR(r.joint_velocity_limit, kPi, 1e-12);
+  EXPECT_NEAR(r.joint_upper[2], kPi, 1e-12);
+  EXPECT_NEAR(r.joint_lower[0], -2 * kPi, 1e-12);
+  ASSERT_EQ(r.joint_names.size(), 6u);
+  EXPECT_EQ(r.joint_names[0], "shoulder_pan_joint");
+  ASSERT_EQ(r.arms.size(), 2u);
+  ASSERT_NE(c.arm("left"), nullptr);
+  ASSERT_NE(c.arm("right"), nullptr);
+  EXPECT_EQ(c.arm("middle"), nullptr);
+  EXPECT_DOUBLE_EQ(c.arm("left")->xyz[1], 0.5);
+  EXPECT_DOUBLE_EQ(c.arm("right")->xyz[1], -0.5);
+  EXPECT_EQ(c.arm("left")->ik_branch[1], -1);
+  // robot.urdf is relative to catkin_ws/src, i.e. three directories above the config file.
+  EXPECT_EQ(r.urdf, "pg_sim/urdf/pushgrasp.urdf");
+  const std::string yaml = PG_WORKSPACE_YAML;
+  const std::string src = yaml.substr(0, yaml.size() - std::string("pg_policy/config/workspace.yaml").size());
+  EXPECT_EQ(r.urdf_path, src + "pg_sim/urdf/pushgrasp.urdf");
+}
+
+TEST(WorkspaceConfig, RelativeUrdfUsesBaseDir) {
+  EXPECT_EQ(WorkspaceConfig::fromString(withoutKey(""), "t", "/a/src").robot().urdf_path,
+            "/a/src/pg_sim/urdf/pushgrasp.urdf");
+  EXPECT_EQ(WorkspaceConfig::fromString(withoutKey("")).robot().urdf_path, "pg_sim/urdf/pushgrasp.urdf");
+  std::string text = withoutKey("primitives.push_speed");
+  EXPECT_NE(errorOf(text).find("missing key 'primitives.push_speed'"), std::string::npos);
+  text = withoutKey("robot.arms") + "  arms: {left: {xyz: [0, 0, 0], rpy: [0, 0, 0], home: [0, 0, 0, 0, 0, 0], "
+                                    "ik_branch: [1, 0, 1]}}\n";
+  EXPECT_NE(errorOf(text).find("'robot.arms.left.ik_branch' must hold three signs"), std::string::npos)
+      << errorOf(text);
 }
 
 TEST(WorkspaceConfig, MinimalConfigIsValid) {
@@ -132,6 +184,17 @@ TEST(WorkspaceConfig, MissingKeyIsNamed) {
       "gripper",
       "gripper.max_opening",
       "gripper.tcp_offset",
+      "gripper.closed_threshold",
+      "primitives.transit_height",
+      "primitives.push_speed",
+      "robot",
+      "robot.urdf",
+      "robot.dh",
+      "robot.joint_names",
+      "robot.joint_lower",
+      "robot.joint_upper",
+      "robot.joint_velocity_limit",
+      "robot.arms",
   };
   for (const auto& key : keys) {
     const std::string text = withoutKey(key);

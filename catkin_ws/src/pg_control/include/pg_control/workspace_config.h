@@ -6,7 +6,9 @@
 #ifndef PG_CONTROL_WORKSPACE_CONFIG_H
 #define PG_CONTROL_WORKSPACE_CONFIG_H
 
+#include <array>
 #include <string>
+#include <vector>
 
 namespace YAML {
 class Node;
@@ -45,7 +47,9 @@ struct PrimitiveParams {
   double push_depth = 0.0;       // push z = local max height - push_depth, never below push_min_z (m)
   double push_min_z = 0.0;       // (m)
   int push_window_px = 0;        // half-size of the local window for the push height (cells)
+  double transit_height = 0.0;   // TCP z of free-space moves between home and the pre-pose (m)
   double cartesian_speed = 0.0;  // tool speed along straight-line segments (m/s)
+  double push_speed = 0.0;       // tool speed while pushing (m/s)
   double waypoint_step = 0.0;    // Cartesian interpolation step (m)
   double time_budget = 0.0;      // seconds per primitive before it is aborted (s)
 };
@@ -54,15 +58,44 @@ struct PrimitiveParams {
 struct GripperParams {
   double max_opening = 0.0;  // m between the finger pads
   double tcp_offset = 0.0;   // tool0 -> fingertip centre along tool0 z (m)
+  double closed_threshold = 0.0;  // opening (m) below which the gripper counts as fully closed
+};
+
+// One arm of `robot.arms` (joint and link names get the prefix `<name>_`).
+struct ArmSpec {
+  std::string name;                     // "left", "right"
+  std::array<double, 3> xyz{};          // `<name>_base_link` origin in `world` (m)
+  std::array<double, 3> rpy{};          // its URDF fixed-axis roll-pitch-yaw in `world` (rad)
+  std::array<double, 6> home{};         // home joint angles (rad)
+  std::array<int, 3> ik_branch{};       // (shoulder, wrist, elbow) signs of the closed-form IK branch (pg_sim.ur_ik)
+};
+
+// `robot:` section (DESIGN.md section 3). Joint arrays are in joint order shoulder_pan .. wrist_3.
+struct RobotParams {
+  std::string urdf;                     // as written in the file (relative to the catkin src dir unless absolute)
+  std::string urdf_path;                // resolved: see WorkspaceConfig::fromFile
+  std::array<double, 6> dh_d{};         // standard DH d (m)
+  std::array<double, 6> dh_a{};         // standard DH a (m)
+  std::array<double, 6> dh_alpha{};     // standard DH alpha (rad)
+  std::vector<std::string> joint_names;  // unprefixed, e.g. "shoulder_pan_joint"
+  std::array<double, 6> joint_lower{};  // rad
+  std::array<double, 6> joint_upper{};  // rad
+  double joint_velocity_limit = 0.0;    // rad/s, every joint
+  std::vector<ArmSpec> arms;            // in file order
 };
 
 class WorkspaceConfig {
  public:
   // Loads and validates a workspace.yaml. Throws std::runtime_error naming the file and, for a missing or malformed
   // entry, the dotted key (e.g. "missing key 'heightmap.resolution'").
+  // A relative `robot.urdf` is resolved against the catkin src dir that holds the file, i.e. three directories up
+  // (src/pg_policy/config/workspace.yaml -> src/; also right for an install space's share/<pkg>/config/), as
+  // pg_policy.geometry does.
   static WorkspaceConfig fromFile(const std::string& path);
-  // Same from YAML text; `source` names it in error messages.
-  static WorkspaceConfig fromString(const std::string& yaml_text, const std::string& source = "<string>");
+  // Same from YAML text; `source` names it in error messages. A relative `robot.urdf` is resolved against
+  // `base_dir` (unchanged when `base_dir` is empty).
+  static WorkspaceConfig fromString(const std::string& yaml_text, const std::string& source = "<string>",
+                                    const std::string& base_dir = "");
 
   const std::string& source() const { return source_; }
 
@@ -92,10 +125,13 @@ class WorkspaceConfig {
 
   const PrimitiveParams& primitives() const { return primitives_; }
   const GripperParams& gripper() const { return gripper_; }
+  const RobotParams& robot() const { return robot_; }
+  // The arm called `name`, or nullptr.
+  const ArmSpec* arm(const std::string& name) const;
 
  private:
   WorkspaceConfig() = default;
-  static WorkspaceConfig fromNode(const YAML::Node& root, const std::string& source);
+  static WorkspaceConfig fromNode(const YAML::Node& root, const std::string& source, const std::string& base_dir);
 
   std::string source_;
   Interval x_;
@@ -107,6 +143,7 @@ class WorkspaceConfig {
   int cols_ = 0;
   PrimitiveParams primitives_;
   GripperParams gripper_;
+  RobotParams robot_;
 };
 
 }  // namespace pg_control

@@ -1,0 +1,292 @@
+#!/usr/bin/env python3
+"""rostest node of primitive_controller.test: /pg/execute_primitive against a fake dual arm.
+
+The fake arm (allowed here: it is the test fixture of the code around it) listens on both arms' trajectory and gripper
+topics, follows each JointTrajectory by linear interpolation in ROS time from its receipt, moves the fingers at the
+gripper's speed (stopping at `object_width` when closing on a simulated object) and publishes /joint_states at 100 Hz
+unless paused. Checks: a grasp succeeds and reports the held object; published trajectories respect the UR5e joint
+velocity limit; out-of-workspace points and unknown frames are refused with nothing published; a second call while
+one runs answers "busy"; a silent /joint_states gives a clear error within the timeout and the node keeps serving.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+import unittest
+
+import numpy as np
+import rospy
+import rostest
+import tf2_ros
+from geometry_msgs.msg import PointStamped, TransformStamped
+from pg_msgs.srv import ExecutePrimitive, ExecutePrimitiveRequest
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+from trajectory_msgs.msg import JointTrajectory
+
+from pg_policy.geometry import load
+
+PKG = "pg_control"
+SERVICE = "/pg/execute_primitive"
+ARMS = ("left", "right")
+ARM_JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
+              "wrist_3_joint")
+GEOMETRY = load()
+VMAX = GEOMETRY.robot.joint_velocity_limit
+CALL_TIMEOUT_S = 60.0  # wall seconds any single call may take in these tests
+
+
+class FakeArms:
+    """Both arms and grippers: follows commands in ROS time, publishes /joint_states, records what it received."""
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.q = {arm: np.array(GEOMETRY.robot.arms[arm].home, dtype=float) for arm in ARMS}
+        self.opening = {arm: GEOMETRY.gripper.max_opening for arm in ARMS}
+        self.gripper_target = dict(self.opening)
+        self.active: dict[str, tuple[float, np.ndarray, np.ndarray]] = {}  # arm -> (t0, times, positions)
+        self.trajectories: list[tuple[str, JointTrajectory]] = []
+        self.gripper_commands: list[tuple[str, float]] = []
+        self.object_width: float | None = None  # closing stops here when set
+        self.paused = False
+        self.pub = rospy.Publisher("/joint_states", JointState, queue_size=10)
+        self.subs = []
+        for arm in ARMS:
+            self.subs.append(rospy.Subscriber(f"/{arm}/scaled_pos_joint_traj_controller/command", JointTrajectory,
+                                              self._on_trajectory, callback_args=arm, queue_size=10))
+            self.subs.append(rospy.Subscriber(f"/{arm}/gripper/command", Float64, self._on_gripper,
+                                              callback_args=arm, queue_size=10))
+        self.last = rospy.get_time()
+        self.timer = rospy.Timer(rospy.Duration(0.01), self._tick)
+
+    def _on_trajectory(self, msg: JointTrajectory, arm: str) -> None:
+        times = np.array([p.time_from_start.to_sec() for p in msg.points])
+        positions = np.array([p.positions for p in msg.points])
+        order = [msg.joint_names.index(f"{arm}_{j}") for j in ARM_JOINTS]
+        with self.lock:
+            self.trajectories.append((arm, msg))
+            self.active[arm] = (rospy.get_time(), times, positions[:, order])
+
+    def _on_gripper(self, msg: Float64, arm: str) -> None:
+        with self.lock:
+            self.gripper_commands.append((arm, msg.data))
+            self.gripper_target[arm] = msg.data
+
+    def _tick(self, _event) -> None:
+        now = rospy.get_time()
+        with self.lock:
+            dt, self.last = now - self.last, now
+            for arm in ARMS:
+                if arm in self.active:
+                    t0, times, positions = self.active[arm]
+                    t = now - t0
+                    self.q[arm] = np.array([np.interp(t, times, positions[:, j]) for j in range(6)])
+                    if t >= times[-1]:
+                        del self.active[arm]
+                target = self.gripper_target[arm]
+                if self.object_width is not None and target < self.object_width:
+                    target = self.object_width
+                step = 2 * GEOMETRY.gripper.finger_speed * dt
+                self.opening[arm] += float(np.clip(target - self.opening[arm], -step, step))
+            if self.paused:
+                return
+            msg = JointState()
+            msg.header.stamp = rospy.Time.now()
+            for arm in ARMS:
+                msg.name += [f"{arm}_{j}" for j in ARM_JOINTS]
+                msg.position += list(self.q[arm])
+                msg.name += [f"{arm}_gripper_finger1_joint", f"{arm}_gripper_finger2_joint"]
+                msg.position += [self.opening[arm] / 2, self.opening[arm] / 2]
+        try:
+            self.pub.publish(msg)
+        except rospy.ROSException:  # shutting down
+            pass
+
+    def received(self) -> tuple[int, int]:
+        with self.lock:
+            return len(self.trajectories), len(self.gripper_commands)
+
+
+def request(primitive: int, x: float, y: float, z: float, yaw: float = 0.0, frame: str = "world",
+            arm: str = "") -> ExecutePrimitiveRequest:
+    req = ExecutePrimitiveRequest()
+    req.primitive = primitive
+    req.position = PointStamped()
+    req.position.header.frame_id = frame
+    req.position.point.x, req.position.point.y, req.position.point.z = x, y, z
+    req.yaw = yaw
+    req.arm = arm
+    return req
+
+
+class Call(threading.Thread):
+    """A service call in the background."""
+
+    def __init__(self, proxy, req) -> None:
+        super().__init__(daemon=True)
+        self.proxy, self.req, self.result, self.error, self.seconds = proxy, req, None, None, None
+
+    def run(self) -> None:
+        start = time.monotonic()
+        try:
+            self.result = self.proxy(self.req)
+        except Exception as exc:  # noqa: BLE001 (reported by the test)
+            self.error = exc
+        self.seconds = time.monotonic() - start
+
+
+class TestPrimitiveController(unittest.TestCase):
+    fake: FakeArms
+    proxy: rospy.ServiceProxy
+
+    @classmethod
+    def setUpClass(cls) -> None:
+        rospy.init_node("rt_primitive_controller")
+        cls.fake = FakeArms()
+        broadcaster = tf2_ros.StaticTransformBroadcaster()
+        t = TransformStamped()  # `table_corner` = world translated by (-0.2, -0.2, 0)
+        t.header.stamp = rospy.Time.now()
+        t.header.frame_id, t.child_frame_id = "world", "table_corner"
+        t.transform.translation.x = t.transform.translation.y = -0.2
+        t.transform.rotation.w = 1.0
+        broadcaster.sendTransform(t)
+        cls.broadcaster = broadcaster
+        rospy.wait_for_service(SERVICE, timeout=60.0)
+        cls.proxy = rospy.ServiceProxy(SERVICE, ExecutePrimitive)
+        deadline = time.monotonic() + 30.0  # the controller and the fake must be connected both ways
+        while time.monotonic() < deadline and (cls.fake.pub.get_num_connections() == 0 or
+                                               any(s.get_num_connections() == 0 for s in cls.fake.subs)):
+            time.sleep(0.1)
+        time.sleep(0.5)  # a few /joint_states reach the controller
+
+    def call(self, req: ExecutePrimitiveRequest):
+        c = Call(self.proxy, req)
+        c.start()
+        c.join(CALL_TIMEOUT_S)
+        self.assertFalse(c.is_alive(), f"call did not return within {CALL_TIMEOUT_S} s")
+        self.assertIsNone(c.error)
+        return c.result, c.seconds
+
+    def assert_nothing_published(self, before: tuple[int, int]) -> None:
+        time.sleep(0.5)
+        self.assertEqual(self.fake.received(), before, "something was commanded for a refused request")
+
+    def test_1_grasp_succeeds_within_the_velocity_limit(self) -> None:
+        self.fake.object_width = 0.04
+        n_traj, n_grip = self.fake.received()
+        res, _ = self.call(request(ExecutePrimitiveRequest.GRASP, 0.05, -0.1, 0.03, yaw=0.4))
+        self.assertTrue(res.success, res.message)
+        self.assertTrue(res.grasped, res.message)
+        self.assertEqual(res.arm, "right")
+        self.assertEqual(res.message, "grasped")
+        with self.fake.lock:
+            trajectories = self.fake.trajectories[n_traj:]
+            grips = self.fake.gripper_commands[n_grip:]
+        # transit, approach, lift, home; gripper: open, close, open at home (releases the object)
+        self.assertEqual(len(trajectories), 4)
+        self.assertEqual([round(v, 4) for _, v in grips], [0.085, 0.0, 0.085])
+        for arm, msg in trajectories:
+            self.assertEqual(arm, "right")
+            self.assertEqual(msg.joint_names, [f"right_{j}" for j in ARM_JOINTS])
+            times = np.array([p.time_from_start.to_sec() for p in msg.points])
+            q = np.array([p.positions for p in msg.points])
+            v = np.array([p.velocities for p in msg.points])
+            self.assertTrue(np.all(np.diff(times) > 0))
+            secant = np.abs(np.diff(q, axis=0)) / np.diff(times)[:, None]
+            self.assertLessEqual(secant.max(), VMAX * (1 + 1e-6))
+            self.assertLessEqual(np.abs(v).max(), VMAX * (1 + 1e-6))
+        # back home with the gripper open
+        with self.fake.lock:
+            np.testing.assert_allclose(self.fake.q["right"], GEOMETRY.robot.arms["right"].home, atol=0.02)
+
+    def test_2_empty_grasp_and_push(self) -> None:
+        self.fake.object_width = None
+        res, _ = self.call(request(ExecutePrimitiveRequest.GRASP, -0.1, 0.1, 0.02, yaw=1.0))
+        self.assertTrue(res.success, res.message)
+        self.assertFalse(res.grasped)
+        self.assertEqual(res.arm, "left")
+        self.assertIn("nothing grasped", res.message)
+        res, _ = self.call(request(ExecutePrimitiveRequest.PUSH, 0.0, 0.1, 0.02, yaw=math.pi / 2, arm="right"))
+        self.assertTrue(res.success, res.message)
+        self.assertEqual((res.arm, res.message), ("right", "pushed"))
+
+    def test_3_point_in_another_frame(self) -> None:
+        # (0.25, 0.1) in table_corner = (0.05, -0.1) in world
+        res, _ = self.call(request(ExecutePrimitiveRequest.PUSH, 0.25, 0.1, 0.02, frame="table_corner"))
+        self.assertTrue(res.success, res.message)
+        self.assertEqual(res.arm, "right")
+
+    def test_4_refusals_publish_nothing(self) -> None:
+        before = self.fake.received()
+        res, _ = self.call(request(ExecutePrimitiveRequest.GRASP, 0.5, 0.0, 0.03))
+        self.assertFalse(res.success)
+        self.assertIn("outside the workspace", res.message)
+        self.assertEqual(res.arm, "")
+        res, _ = self.call(request(ExecutePrimitiveRequest.PUSH, 0.0, 0.0, 0.02, frame="nowhere"))
+        self.assertFalse(res.success)
+        self.assertIn("no transform from 'nowhere'", res.message)
+        res, _ = self.call(request(ExecutePrimitiveRequest.GRASP, 0.0, 0.0, 0.03, arm="middle"))
+        self.assertFalse(res.success)
+        self.assertIn("unknown arm 'middle'", res.message)
+        res, _ = self.call(request(7, 0.0, 0.0, 0.03))
+        self.assertFalse(res.success)
+        self.assertIn("unknown primitive", res.message)
+        self.assert_nothing_published(before)
+
+    def test_5_second_call_while_busy(self) -> None:
+        n_traj, _ = self.fake.received()
+        first = Call(self.proxy, request(ExecutePrimitiveRequest.GRASP, 0.0, 0.1, 0.03))
+        first.start()
+        deadline = time.monotonic() + 10.0
+        while self.fake.received()[0] == n_traj and time.monotonic() < deadline:
+            time.sleep(0.02)
+        res, seconds = self.call(request(ExecutePrimitiveRequest.GRASP, 0.0, -0.1, 0.03))
+        self.assertFalse(res.success)
+        self.assertEqual(res.message, "busy")
+        self.assertLess(seconds, 2.0)
+        first.join(CALL_TIMEOUT_S)
+        self.assertIsNotNone(first.result, first.error)
+        self.assertTrue(first.result.success, first.result.message)
+
+    def test_6_silent_joint_states(self) -> None:
+        self.fake.paused = True
+        try:
+            time.sleep(2.5)
+            before = self.fake.received()
+            res, seconds = self.call(request(ExecutePrimitiveRequest.GRASP, 0.0, 0.0, 0.03))
+            self.assertFalse(res.success)
+            self.assertIn("/joint_states", res.message)
+            self.assertLess(seconds, 1.0)
+            self.assert_nothing_published(before)
+        finally:
+            self.fake.paused = False
+        time.sleep(0.5)
+        res, _ = self.call(request(ExecutePrimitiveRequest.GRASP, 0.0, 0.0, 0.03))
+        self.assertTrue(res.success, res.message)
+
+    def test_7_joint_states_die_mid_motion(self) -> None:
+        n_traj, _ = self.fake.received()
+        call = Call(self.proxy, request(ExecutePrimitiveRequest.PUSH, 0.1, 0.1, 0.02))
+        call.start()
+        deadline = time.monotonic() + 10.0
+        while self.fake.received()[0] == n_traj and time.monotonic() < deadline:
+            time.sleep(0.02)
+        self.fake.paused = True
+        try:
+            call.join(CALL_TIMEOUT_S)
+            self.assertFalse(call.is_alive())
+            self.assertIsNotNone(call.result, call.error)
+            self.assertFalse(call.result.success)
+            self.assertIn("/joint_states", call.result.message)
+            self.assertLess(call.seconds, 6.0)
+        finally:
+            self.fake.paused = False
+        time.sleep(0.5)
+        res, _ = self.call(request(ExecutePrimitiveRequest.PUSH, 0.1, 0.1, 0.02))  # plans from where the arm stopped
+        self.assertTrue(res.success, res.message)
+
+
+if __name__ == "__main__":
+    rostest.rosrun(PKG, "rt_primitive_controller", TestPrimitiveController)
