@@ -44,7 +44,7 @@ def write_bag(path: Path, seconds: float = 6.0) -> None:
                     bag.write(f"/{arm}/joint_states", part, msg.header.stamp)
             if out.camera is not None:
                 for topic, m in conv.camera_messages(out.camera, sim.geometry.camera, frame).items():
-                    bag.write(topic, m, m.header.stamp)
+                    bag.write(f"/camera/{topic}", m, m.header.stamp)
 
 
 class RobotFromBag(unittest.TestCase):

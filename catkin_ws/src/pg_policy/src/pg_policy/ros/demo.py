@@ -62,18 +62,16 @@ def run(args: argparse.Namespace) -> int:
     print(f"[demo] {' '.join(cmd)}  (log: {args.out / 'roslaunch.log'})")
     proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
     try:
+        import rosgraph
         import rospy
         from pg_msgs.srv import GraspTarget
 
         t0 = time.monotonic()
-        while True:  # the master comes up with roslaunch
-            try:
-                rospy.init_node("pg_demo", anonymous=True, disable_signals=True)
-                break
-            except Exception:  # noqa: BLE001 (master not up yet)
-                if time.monotonic() - t0 > args.startup_timeout or proc.poll() is not None:
-                    raise
-                time.sleep(0.5)
+        while not rosgraph.Master("/pg_demo").is_online():  # the master comes up with roslaunch
+            if time.monotonic() - t0 > args.startup_timeout or proc.poll() is not None:
+                raise RuntimeError("roslaunch did not bring up a ROS master")
+            time.sleep(0.3)
+        rospy.init_node("pg_demo", anonymous=True, disable_signals=True)
         rospy.wait_for_service("/pg/grasp_target", timeout=args.startup_timeout)
         save_camera(args.out / "before.png", 30.0)
         call = rospy.ServiceProxy("/pg/grasp_target", GraspTarget)
