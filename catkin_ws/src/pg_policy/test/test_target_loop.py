@@ -87,13 +87,19 @@ def make(script, primitive="grasp", alive=True):
     source = Source(clock, alive)
     ex = Executor(clock, source, script)
     records = []
-    loop = TargetLoop(Policy(primitive), source, ex, clock, on_action=records.append)
+    loop = TargetLoop(Policy(primitive), source, ex, clock, on_action=records.append,
+                      on_decision=lambda rec, shm: decided.append((rec, shm.stamp)))
     return loop, source, ex, records
 
 
+decided: list = []
+
+
 def test_grasps_the_target_and_reports_every_action():
+    decided.clear()
     loop, _, ex, records = make([(True, False, False), (True, True, True)])
     res = loop.run("green")
+    assert [(r.index, stamp) for r, stamp in decided] == [(r.index, r.heightmap_stamp) for r in records]
     assert res.success and res.grasps == 2 and res.pushes == 0 and res.failed_grasps == 1
     assert "grasped" in res.message
     assert [r.target_grasped for r in records] == [False, True]

@@ -19,9 +19,9 @@ from visualization_msgs.msg import Marker  # noqa: E402
 
 from pg_policy.geometry import load  # noqa: E402
 from pg_sim import ros_conversions as conv  # noqa: E402
+from pg_sim.runtime_types import CameraCapture, JointStateData, ObjectState, ResetResult, SceneState  # noqa: E402
 from pg_sim.scene import ObjectSpec  # noqa: E402
 from pg_sim.sensor_data import CloudBuilder, marker_parts, pose_parts  # noqa: E402
-from pg_sim.sim_runtime import CameraCapture, JointStateData, ObjectState, ResetResult, SceneState  # noqa: E402
 
 FRAME = "camera_color_optical_frame"
 

@@ -8,9 +8,11 @@ import threading
 import numpy as np
 import pytest
 
+from pg_sim.pacer import Pacer
+from pg_sim.runtime_types import ResetRequest
 from pg_sim.scene import SceneError
 from pg_sim.sensor_data import CLOUD_DTYPE
-from pg_sim.sim_runtime import Pacer, ResetRequest, RuntimeConfig, SimRuntime
+from pg_sim.sim_runtime import RuntimeConfig, SimRuntime
 from pg_sim.trajectory import JointTrajectory, TrajectoryPoint
 
 FAST = dict(real_time_factor=0.0, idle_real_time_factor=0.0)

@@ -140,13 +140,16 @@ class PolicyObservation:
 class TargetLoop:
     """Runs grasp-target calls with one policy. Not re-entrant: the caller refuses concurrent calls.
 
-    clock: ROS time now (s). on_action: called with each record once its outcome is known (the node publishes it).
+    clock: ROS time now (s). on_decision: called with each record and its heightmap right after deciding, before
+    anything runs (the node draws it); on_action: called with each record once its outcome is known (the node
+    publishes it).
     heightmap_timeout_s: wall seconds to wait for a fresh heightmap before giving up with NoHeightmap.
     """
 
     def __init__(self, policy: Any, source: HeightmapSource, executor: PrimitiveExecutor, clock: Callable[[], float],
                  policy_name: str = "", heightmap_timeout_s: float = 5.0,
-                 on_action: Callable[[ActionRecord], None] | None = None) -> None:
+                 on_action: Callable[[ActionRecord], None] | None = None,
+                 on_decision: Callable[[ActionRecord, StampedHeightmap], None] | None = None) -> None:
         self.policy = policy
         self.source = source
         self.executor = executor
@@ -154,6 +157,7 @@ class TargetLoop:
         self.policy_name = policy_name or getattr(policy, "name", "policy")
         self.heightmap_timeout_s = heightmap_timeout_s
         self.on_action = on_action
+        self.on_decision = on_decision
         self.episode = 0
         self.last_q: dict[str, np.ndarray] = {}
         self._after: StampedHeightmap | None = None
@@ -171,8 +175,11 @@ class TargetLoop:
                             f"(at least {MIN_VISIBLE_CELLS} needed)")
         decision = self.policy.act(PolicyObservation(shm.heightmap, target))
         self.last_q = self.policy.q_maps()
-        return ActionRecord(episode, index, target, self.policy_name, decision, shm.stamp, self.clock(), pixels,
-                            self.threshold)
+        rec = ActionRecord(episode, index, target, self.policy_name, decision, shm.stamp, self.clock(), pixels,
+                           self.threshold)
+        if self.on_decision:
+            self.on_decision(rec, shm)
+        return rec
 
     def infer(self, target: str) -> ActionRecord:
         """The decision on the first heightmap newer than now (nothing executed)."""

@@ -14,8 +14,8 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from pg_policy.geometry import CameraSpec
+from pg_sim.runtime_types import CameraCapture, JointStateData, ResetRequest, ResetResult, SceneState
 from pg_sim.sensor_data import CLOUD_FIELDS, MarkerPart, ObjectMarker
-from pg_sim.sim_runtime import CameraCapture, JointStateData, ResetRequest, ResetResult, SceneState
 from pg_sim.trajectory import JointTrajectory, TrajectoryPoint
 
 

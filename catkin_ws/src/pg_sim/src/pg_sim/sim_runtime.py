@@ -21,10 +21,8 @@ the table (z < FALLEN_Z) is frozen there (made static) so it does not fall forev
 from __future__ import annotations
 
 import queue
-import threading
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import pybullet as p
@@ -32,6 +30,17 @@ import pybullet as p
 from pg_policy.geometry import Geometry
 from pg_sim.colors import color_name, nearest_color_name, rgba
 from pg_sim.objects import build_shape
+from pg_sim.pacer import Pacer, Periodic
+from pg_sim.runtime_types import (
+    CameraCapture,
+    JointStateData,
+    ObjectState,
+    PendingReset,
+    ResetRequest,
+    ResetResult,
+    SceneState,
+    StepOutput,
+)
 from pg_sim.scene import SceneError, SceneSpec, find_scene, load_scene
 from pg_sim.scene_source import RANDOM
 from pg_sim.sensor_data import CloudBuilder, MarkerPart, ObjectMarker, depth_with_nan, marker_parts, pose_parts
@@ -65,157 +74,6 @@ class RuntimeConfig:
     scene_state_rate: float = 2.0
     real_time_factor: float = 0.0       # cap while something moves
     idle_real_time_factor: float = 1.0  # cap while nothing moves
-
-
-@dataclass(frozen=True)
-class ResetRequest:
-    """A scene name ("packed/case01"), a YAML path, "random" (num_objects from seed) or "random-N"."""
-
-    scene: str
-    num_objects: int = 0
-    seed: int = 0
-
-
-@dataclass(frozen=True)
-class ResetResult:
-    success: bool
-    message: str
-    scene_name: str = ""
-    target: str = ""
-    num_objects: int = 0
-
-
-class PendingReset:
-    """A reset queued from another thread; `wait()` returns its result, or None on timeout."""
-
-    def __init__(self, request: ResetRequest) -> None:
-        self.request = request
-        self.result: ResetResult | None = None
-        self.done_ = threading.Event()
-
-    def finish(self, result: ResetResult) -> None:
-        self.result = result
-        self.done_.set()
-
-    def wait(self, timeout: float | None = None) -> ResetResult | None:
-        return self.result if self.done_.wait(timeout) else None
-
-
-@dataclass(frozen=True)
-class JointStateData:
-    stamp: float
-    names: tuple[str, ...]
-    positions: np.ndarray
-    velocities: np.ndarray
-
-
-@dataclass(frozen=True)
-class CameraCapture:
-    """One capture: colour (H, W, 3) uint8 RGB, depth (H, W) float32 m (NaN = no return), organised cloud (H, W)
-    sensor_data.CLOUD_DTYPE in the optical frame; ``seq`` changes only when the scene was rendered anew."""
-
-    stamp: float
-    color: np.ndarray
-    depth: np.ndarray
-    cloud: np.ndarray
-    seq: int
-    rendered: bool
-    render_s: float  # wall seconds spent rendering + building (0 when re-used)
-
-
-@dataclass(frozen=True)
-class ObjectState:
-    name: str
-    shape: str
-    color_name: str
-    rgb: tuple[int, int, int]
-    target: bool
-    position: tuple[float, float, float]
-    quaternion: tuple[float, float, float, float]  # x, y, z, w
-    in_workspace: bool
-
-
-@dataclass(frozen=True)
-class SceneState:
-    stamp: float
-    scene: str
-    target: str
-    target_in_workspace: bool
-    objects: tuple[ObjectState, ...]
-
-
-@dataclass
-class StepOutput:
-    """What one step made due (None / False when not due) and warnings about refused commands."""
-
-    sim_time: float
-    busy: bool
-    clock: bool = False
-    joint_state: JointStateData | None = None
-    camera: CameraCapture | None = None
-    scene_state: SceneState | None = None
-    markers: list[ObjectMarker] | None = None
-    messages: list[str] = field(default_factory=list)
-
-
-class Pacer:
-    """Keeps sim time at most `factor` times faster than wall time (factor <= 0: no limit).
-
-    Re-anchors when the factor changes or when the sim falls more than `max_lag` wall seconds behind, so a slow
-    stretch is never followed by a burst. Sleeps only when at least `min_sleep` s ahead (fewer wake-ups).
-    """
-
-    def __init__(self, busy_factor: float, idle_factor: float, clock: Callable[[], float] = time.monotonic,
-                 sleep: Callable[[float], None] = time.sleep, max_lag: float = 0.1, min_sleep: float = 0.004) -> None:
-        self.busy_factor = busy_factor
-        self.idle_factor = idle_factor
-        self.clock_ = clock
-        self.sleep_ = sleep
-        self.max_lag_ = max_lag
-        self.min_sleep_ = min_sleep
-        self.anchor_: tuple[float, float] | None = None  # (wall, sim)
-        self.factor_ = 0.0
-        self.slept = 0.0  # total wall seconds slept
-
-    def reanchor(self) -> None:
-        self.anchor_ = None
-
-    def pace(self, sim_time: float, busy: bool) -> float:
-        """Sleep as needed after a step that reached ``sim_time``; returns the seconds slept."""
-        factor = self.busy_factor if busy else self.idle_factor
-        now = self.clock_()
-        if factor <= 0.0:
-            self.anchor_ = None
-            return 0.0
-        if self.anchor_ is None or factor != self.factor_:
-            self.anchor_, self.factor_ = (now, sim_time), factor
-            return 0.0
-        delay = self.anchor_[0] + (sim_time - self.anchor_[1]) / factor - now
-        if delay < -self.max_lag_:
-            self.anchor_ = (now, sim_time)
-            return 0.0
-        if delay < self.min_sleep_:
-            return 0.0
-        self.sleep_(delay)
-        self.slept += delay
-        return delay
-
-
-class _Periodic:
-    """Due times of a fixed-rate output in sim time (never bursts to catch up after a jump)."""
-
-    def __init__(self, rate: float) -> None:
-        self.period = 1.0 / rate if rate > 0 else 0.0
-        self.next = 0.0
-
-    def due(self, t: float) -> bool:
-        if self.period <= 0.0 or t + 1e-9 < self.next:
-            return False
-        self.next = max(self.next + self.period, t + 0.5 * self.period)
-        return True
-
-    def force(self, t: float) -> None:
-        self.next = t
 
 
 class _Arm:
@@ -257,10 +115,10 @@ class SimRuntime:
         self.marker_parts_: dict[int, list[MarkerPart]] = {}
         self.cloud_builder_ = CloudBuilder(self.geometry.camera.intrinsics, self.geometry.camera.width,
                                            self.geometry.camera.height)
-        self.clock_ = _Periodic(cfg.clock_rate)
-        self.joint_state_ = _Periodic(cfg.joint_state_rate)
-        self.camera_ = _Periodic(cfg.camera_rate)
-        self.scene_state_ = _Periodic(cfg.scene_state_rate)
+        self.clock_ = Periodic(cfg.clock_rate)
+        self.joint_state_ = Periodic(cfg.joint_state_rate)
+        self.camera_ = Periodic(cfg.camera_rate)
+        self.scene_state_ = Periodic(cfg.scene_state_rate)
         self.last_capture_: CameraCapture | None = None
         self.last_render_time_ = -np.inf
         self.dirty_ = True  # something may have moved since the last render

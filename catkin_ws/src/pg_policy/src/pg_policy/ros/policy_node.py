@@ -111,7 +111,8 @@ class PolicyNode:
         self.pub_q = rospy.Publisher("/pg/q_map", Image, queue_size=1, latch=True)
         self.pub_markers = rospy.Publisher("/pg/markers", MarkerArray, queue_size=1, latch=True)
         self.loop = TargetLoop(policy, self.source, executor, rospy.get_time, self.policy_name,
-                               float(rospy.get_param("~heightmap_timeout", 5.0)), on_action=self._publish_action)
+                               float(rospy.get_param("~heightmap_timeout", 5.0)), on_action=self._publish_action,
+                               on_decision=self._visualise)
         self.busy = threading.Lock()
         self.hm_: dict[float, object] = {}
         rospy.Service("/pg/infer", Infer, self.on_infer)
@@ -135,8 +136,6 @@ class PolicyNode:
             return InferResponse(success=False, message="busy: a grasp_target call is running")
         try:
             rec = self.loop.infer(req.target)
-            shm = self.source.wait_after(rec.heightmap_stamp - 1e-9, 0.1)
-            self._visualise(rec, shm)
             return InferResponse(success=True, message="ok", decision=convert.decision_msg(rec, rospy.Time.now()))
         except (LoopError, ValueError) as exc:
             return InferResponse(success=False, message=str(exc))
@@ -180,7 +179,6 @@ class PolicyNode:
                     rospy.logwarn_throttle(5.0, str(exc))
                     continue
             self._publish_action(rec)
-            self._visualise(rec, shm)
 
 
 def main() -> None:
