@@ -8,13 +8,14 @@ STAMP := .stamps
 CATKIN_INPUTS := $(shell find catkin_ws/src -name package.xml -o -name CMakeLists.txt -o -name '*.msg' -o -name '*.srv' \
                    -o -name '*.action' -o -name '*.cpp' -o -name '*.h' -o -name setup.py 2>/dev/null)
 
-.PHONY: help setup build test test-python test-cpp lint demo urdf clean
+.PHONY: help setup build test test-python test-cpp lint demo train urdf clean
 
 help:
 	@echo "make setup   Debian ROS packages, .venv (torch, pybullet, ...), catkin build (idempotent)"
 	@echo "make build   catkin_make of catkin_ws (C++ nodes, messages)"
 	@echo "make test    every test tier (runs setup first)"
 	@echo "make demo    headless sim demo (runs setup first)"
+	@echo "make train   train the lite model through the four stages and export it (hours; resumable)"
 	@echo "make lint    ruff"
 	@echo "make urdf    regenerate catkin_ws/src/pg_sim/urdf/pushgrasp.urdf from the geometry config"
 
@@ -51,6 +52,9 @@ test: setup
 
 demo: setup
 	@scripts/demo.sh
+
+train: setup
+	@scripts/train_recipe.sh
 
 clean:
 	rm -rf catkin_ws/build catkin_ws/devel $(STAMP)

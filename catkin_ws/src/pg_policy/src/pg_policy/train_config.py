@@ -21,7 +21,8 @@ class TrainConfig:
     backbone: str = _f("lite", "network backbone: lite (CPU-trainable) | densenet121 (the paper's)")
     goal: str = _f("none", "goal input: none (mask applied to Q maps only, the paper's main model) | mask")
     pretrained: Path | None = _f(None, "torchvision densenet121 state_dict file (densenet121 backbone only)")
-    init: Path | None = _f(None, "checkpoint to start from (default: the previous stage's last.pt in --out)")
+    init: Path | None = _f(None, "checkpoint (last.pt) or exported model directory (grasp.pt [+ push.pt]) to start "
+                                 "from (default: the previous stage's last.pt in --out)")
     iterations: int = _f(2000, "actions to execute in this stage (the run resumes from its checkpoint)")
     minutes: float = _f(0.0, "wall-clock budget in minutes for this invocation (0 = no limit)")
     scene: str = _f("random-10", "training scenes: random-N (N objects dropped) or dense-N (N packed objects)")

@@ -71,10 +71,31 @@ class Trainer:
             if not Path(init).exists():
                 raise FileNotFoundError(f"stage {self.stage.name} starts from {init}, which does not exist: train "
                                         f"stage '{self.stage.previous}' first or pass --init")
-            ck = torch.load(init, map_location="cpu", weights_only=False)
-            for role, net in self.nets.items():
-                net.load_state_dict(ck["nets"][role])
+            if Path(init).is_dir():
+                self._init_from_models(Path(init))
+            else:
+                ck = torch.load(init, map_location="cpu", weights_only=False)
+                for role, net in self.nets.items():
+                    net.load_state_dict(ck["nets"][role])
             print(f"[train] {self.stage.name}: starting from {init}")
+
+    def _init_from_models(self, folder: Path) -> None:
+        """Weights from exported TorchScript files (`pushgrasp export` layout); a net without a file keeps its
+        fresh initialisation. Raises ModelLoadError for a file made for another backbone or goal input."""
+        from pg_policy.model_io import ModelLoadError, load_qnet
+
+        for role, net in self.nets.items():
+            path = folder / f"{role}.pt"
+            if not path.is_file():
+                print(f"[train] {role} net: no {path}, starting from scratch")
+                continue
+            scripted, meta = load_qnet(path)
+            want = {"backbone": self.cfg.backbone, "goal": self.cfg.goal}
+            got = {k: meta.get(k) for k in want}
+            if got != want:
+                raise ModelLoadError(f"{path} is a {got} model; this run trains {want}")
+            own = net.state_dict()
+            net.load_state_dict({k: v for k, v in scripted.state_dict().items() if k in own})
 
     def save(self) -> Path:
         for buf in self.replay.values():

@@ -174,6 +174,7 @@ class PolicyNode:
             last = shm.stamp
             with self.busy:
                 try:
+                    self.loop.policy.reset(0)  # nothing was executed: no memory of earlier decisions
                     rec = self.loop.decide(target, shm)
                 except LoopError as exc:
                     rospy.logwarn_throttle(5.0, str(exc))

@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# `make train`: the shipped `lite` model end to end, the paper's four stages in order, each starting from the
+# previous stage's checkpoint, then `pushgrasp export` to catkin_ws/src/pg_policy/models/lite.
+# Re-running resumes: every stage continues from <out>/<stage>/last.pt (checkpoint + disk-backed replay) and a
+# finished stage is skipped, so an interrupted run (Ctrl-C, a closed session) loses at most one checkpoint period.
+# Run it in the background:  nohup make train > train.log 2>&1 &     (progress bars: tail -f train.log)
+#
+# Environment (defaults reproduce the shipped model):
+#   PG_TRAIN_OUT      run directory                          (runs/lite)
+#   PG_TRAIN_EXPORT   where grasp.pt + push.pt are exported   (catkin_ws/src/pg_policy/models/lite)
+#   PG_TRAIN_MINUTES  wall-clock cap per stage invocation, 0 = none (0): with a cap, rerun to continue
+#   PG_TRAIN_INIT     exported model directory that replaces the grasp-agnostic stage ("": train it)
+#   PG_TRAIN_THREADS  torch CPU threads (2)
+#   PG_TRAIN_SCALE    multiplies every stage's iterations (1.0), e.g. 0.5 for a quicker, weaker model
+set -euo pipefail
+repo=$(cd "$(dirname "$0")/.." && pwd)
+cd "$repo"
+out="${PG_TRAIN_OUT:-runs/lite}"
+export_dir="${PG_TRAIN_EXPORT:-catkin_ws/src/pg_policy/models/lite}"
+minutes="${PG_TRAIN_MINUTES:-0}"
+init="${PG_TRAIN_INIT:-}"
+threads="${PG_TRAIN_THREADS:-2}"
+scale="${PG_TRAIN_SCALE:-1.0}"
+py="$repo/.venv/bin/python"
+
+# stage | scenes | iterations | lr | seed (training seeds < 1,000,000; evaluation uses >= 1,000,000)
+STAGES=(
+  "grasp-agnostic random-10 2000 5e-4 1"
+  "grasp-goal     random-10 1000 2e-4 2"
+  "push           dense-8   1000 2e-4 3"
+  "alternate      dense-8   1000 1e-4 4"
+)
+
+for row in "${STAGES[@]}"; do
+  read -r stage scene iters lr seed <<< "$row"
+  iters=$("$py" -c "print(max(1, round($iters * $scale)))")
+  extra=()
+  if [ "$stage" = "grasp-agnostic" ] && [ -n "$init" ]; then
+    echo "[recipe] grasp-agnostic: replaced by $init"
+    continue
+  fi
+  if [ "$stage" = "grasp-goal" ] && [ -n "$init" ] && [ ! -e "$out/grasp-goal/last.pt" ]; then
+    extra=(--init "$init")
+  fi
+  echo "[recipe] $stage: $iters iterations on $scene, lr $lr, seed $seed"
+  "$py" -m pg_policy.cli train --stage "$stage" --out "$out" --scene "$scene" --iterations "$iters" --lr "$lr" \
+    --seed "$seed" --threads "$threads" --minutes "$minutes" "${extra[@]}"
+  done_its=$("$py" -c "import torch; print(torch.load('$out/$stage/last.pt', weights_only=False)['iteration'])")
+  if [ "$done_its" -lt "$iters" ]; then
+    echo "[recipe] $stage stopped at $done_its/$iters iterations (time cap): rerun to continue"
+    exit 3
+  fi
+done
+"$py" -m pg_policy.cli export --run "$out" --out "$export_dir"
+echo "[recipe] exported $export_dir"
