@@ -68,3 +68,24 @@ def test_export_loads_without_project_source_and_matches_checkpoint(run_dir, tmp
         with torch.no_grad():
             np.testing.assert_allclose(module(color, depth, mask, [0, 5]).numpy(),
                                        eager(color, depth, mask, [0, 5]).numpy(), atol=1e-5)
+
+
+def test_a_stage_can_start_from_exported_models(run_dir, tmp_path):
+    import torch
+
+    from pg_policy.model_io import ModelLoadError
+    from pg_policy.train_config import TrainConfig
+    from pg_policy.trainer import Trainer
+
+    model = tmp_path / "model"
+    assert main(["export", "--run", str(run_dir), "--out", str(model)]) == 0
+    ck = torch.load(run_dir / "alternate" / "last.pt", map_location="cpu", weights_only=False)
+    trainer = Trainer(TrainConfig(stage="grasp-goal", out=tmp_path / "fresh", iterations=1, init=model))
+    try:
+        for role in ("grasp", "push"):
+            for k, v in ck["nets"][role].items():
+                assert torch.equal(trainer.nets[role].state_dict()[k], v), (role, k)
+    finally:
+        trainer.env.close()
+    with pytest.raises(ModelLoadError, match="this run trains"):
+        Trainer(TrainConfig(stage="grasp-goal", out=tmp_path / "other", iterations=1, init=model, goal="mask"))
