@@ -75,7 +75,7 @@ class SimStack(unittest.TestCase):
         self.assertTrue(res.decisions[-1].target_grasped)
         self.assertTruthful(res)
 
-    def test_4_dead_camera_is_a_clear_error(self) -> None:
+    def test_9_dead_camera_is_a_clear_error(self) -> None:
         reset = self.reset(scene="household/case11")
         self.assertTrue(reset.success, reset.message)
         subprocess.run(["rosnode", "kill", "/heightmap_projector"], check=True, capture_output=True, timeout=30)
@@ -89,6 +89,34 @@ class SimStack(unittest.TestCase):
         inf = self.infer(target="green")
         self.assertFalse(inf.success)
         self.assertIn("no new heightmap", inf.message)
+
+
+    def test_4_action_feedback_and_cancel(self) -> None:
+        import actionlib
+        from actionlib_msgs.msg import GoalStatus
+        from pg_msgs.msg import GraspTargetAction, GraspTargetGoal
+
+        client = actionlib.SimpleActionClient("/pg/grasp_target_action", GraspTargetAction)
+        self.assertTrue(client.wait_for_server(rospy.Duration(30.0)))
+        reset = self.reset(scene="packed/case01")
+        self.assertTrue(reset.success, reset.message)
+        feedback = []
+        client.send_goal(GraspTargetGoal(target="green"), feedback_cb=feedback.append)
+        deadline = time.monotonic() + 120.0
+        while not feedback and time.monotonic() < deadline:
+            time.sleep(0.1)
+        self.assertTrue(feedback, "no feedback after the first action")
+        self.assertTrue(feedback[0].last.executed)
+        client.cancel_goal()
+        self.assertTrue(client.wait_for_result(rospy.Duration(120.0)))
+        result, state = client.get_result(), client.get_state()
+        if state == GoalStatus.SUCCEEDED:  # the action that was running when cancelled grasped the target
+            self.assertTrue(result.success)
+        else:
+            self.assertEqual(state, GoalStatus.PREEMPTED, result.message)
+            self.assertEqual(result.message, "cancelled")
+            self.assertEqual(len(result.decisions), len(feedback))
+        self.assertFalse(self.grasp(target="mauve").success)  # the node serves again
 
 
 if __name__ == "__main__":

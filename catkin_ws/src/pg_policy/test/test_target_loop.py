@@ -160,3 +160,9 @@ def test_infer_executes_nothing():
 def test_limits_are_validated():
     with pytest.raises(ValueError):
         LoopLimits(max_actions=0)
+
+
+def test_cancel_is_checked_between_actions():
+    loop, _, ex, _ = make([(True, False, False)], primitive="push")
+    res = loop.run("green", cancelled=lambda: len(ex.calls) >= 2)
+    assert not res.success and res.message == "cancelled" and len(ex.calls) == 2 and res.pushes == 2

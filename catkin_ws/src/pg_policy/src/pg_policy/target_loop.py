@@ -187,9 +187,11 @@ class TargetLoop:
         self.policy.reset(0)
         return self.decide(target, self.source.wait_after(self.clock(), self.heightmap_timeout_s))
 
-    def run(self, target: str, limits: LoopLimits | None = None) -> LoopResult:
+    def run(self, target: str, limits: LoopLimits | None = None,
+            cancelled: Callable[[], bool] | None = None) -> LoopResult:
         """One call: raises LoopError before anything moves (unknown colour, no heightmap, target not visible);
-        later problems end the call with success False and the reason in the result's message."""
+        later problems end the call with success False and the reason in the result's message. `cancelled` is
+        asked between actions (a running primitive always finishes); True ends the call with message "cancelled"."""
         limits = limits or LoopLimits()
         target = check_target(target)
         t0, wall0 = self.clock(), time.monotonic()
@@ -212,6 +214,9 @@ class TargetLoop:
                     break
                 if time.monotonic() - wall0 > limits.timeout_s:
                     res.message = f"time budget of {limits.timeout_s:.0f} s spent"
+                    break
+                if cancelled is not None and cancelled():
+                    res.message = "cancelled"
                     break
                 rec = self.decide(target, self._fresh(rec), len(res.actions), self.episode)
         except LoopError as exc:

@@ -1,5 +1,7 @@
-"""rospy shell of the policy (DESIGN.md section 5): /pg/heightmap in; /pg/infer and /pg/grasp_target served;
-/pg/decisions, /pg/q_map and /pg/markers out. The loop itself is pg_policy.target_loop.TargetLoop.
+"""rospy shell of the policy (DESIGN.md section 5): /pg/heightmap in; /pg/infer and /pg/grasp_target served, and
+the action /pg/grasp_target_action (pg_msgs/GraspTargetAction: feedback per action, cancel between actions; a goal
+while a call runs is rejected "busy"); /pg/decisions, /pg/q_map and /pg/markers out. The loop itself is
+pg_policy.target_loop.TargetLoop.
 
 Private parameters (defaults): ~policy ("heuristic"; a registry name or a model directory / TorchScript file),
 ~grasp_threshold (from the model), ~heightmap_timeout (5.0 wall s), ~primitive_timeout (60.0 s per primitive),
@@ -10,86 +12,22 @@ A missing or corrupt model file ends the node at start-up with the reason (exit 
 
 from __future__ import annotations
 
-import concurrent.futures
 import sys
 import threading
-import time
 
+import actionlib
 import rospy
-from geometry_msgs.msg import PointStamped
 from pg_msgs.msg import Decision as DecisionMsg
-from pg_msgs.msg import Heightmap as HeightmapMsg
-from pg_msgs.srv import (
-    ExecutePrimitive,
-    ExecutePrimitiveRequest,
-    GraspTarget,
-    GraspTargetResponse,
-    Infer,
-    InferResponse,
-)
+from pg_msgs.msg import GraspTargetAction, GraspTargetFeedback, GraspTargetResult
+from pg_msgs.srv import GraspTarget, GraspTargetResponse, Infer, InferResponse
 from sensor_msgs.msg import Image
 from visualization_msgs.msg import MarkerArray
 
 from pg_policy.ros import convert
-from pg_policy.target_loop import Execution, LoopError, LoopLimits, NoHeightmap, StampedHeightmap, TargetLoop, mask_of
+from pg_policy.ros.loop_io import ServiceExecutor, TopicHeightmapSource
+from pg_policy.target_loop import LoopError, LoopLimits, NoHeightmap, StampedHeightmap, TargetLoop, mask_of
 
-
-class TopicHeightmapSource:
-    """Latest /pg/heightmap message (queue 1, large buffer: never a backlog of stale frames)."""
-
-    def __init__(self, topic: str) -> None:
-        self.cond_ = threading.Condition()
-        self.msg_: HeightmapMsg | None = None
-        self.sub_ = rospy.Subscriber(topic, HeightmapMsg, self._on_msg, queue_size=1, buff_size=2**24)
-        self.topic_ = topic
-
-    def _on_msg(self, msg: HeightmapMsg) -> None:
-        with self.cond_:
-            self.msg_ = msg
-            self.cond_.notify_all()
-
-    def wait_after(self, stamp: float, timeout_s: float) -> StampedHeightmap:
-        deadline = time.monotonic() + timeout_s
-        with self.cond_:
-            while self.msg_ is None or self.msg_.header.stamp.to_sec() <= stamp:
-                left = deadline - time.monotonic()
-                if left <= 0 or rospy.is_shutdown():
-                    raise NoHeightmap(f"no new heightmap on {self.topic_} within {timeout_s:.1f} s "
-                                      "(is the camera publishing and the heightmap projector running?)")
-                self.cond_.wait(min(left, 0.1))
-            msg = self.msg_
-        return StampedHeightmap(convert.heightmap_from_msg(msg), msg.header.stamp.to_sec())
-
-
-class ServiceExecutor:
-    """Runs primitives through the controller's service; every call is bounded in wall time."""
-
-    def __init__(self, name: str, timeout_s: float) -> None:
-        self.name_, self.timeout_s_ = name, timeout_s
-        self.proxy_ = rospy.ServiceProxy(name, ExecutePrimitive)
-        self.pool_ = concurrent.futures.ThreadPoolExecutor(max_workers=1)
-
-    def execute(self, decision, timeout_s: float) -> Execution:
-        try:
-            self.proxy_.wait_for_service(timeout=2.0)
-        except rospy.ROSException:
-            raise LoopError(f"controller service {self.name_} is not available") from None
-        req = ExecutePrimitiveRequest(primitive=(ExecutePrimitiveRequest.GRASP if decision.primitive == "grasp"
-                                                 else ExecutePrimitiveRequest.PUSH),
-                                      yaw=float(decision.yaw), timeout=min(self.timeout_s_, timeout_s))
-        req.position = PointStamped()
-        req.position.header.frame_id = convert.WORLD
-        req.position.point.x, req.position.point.y, req.position.point.z = decision.position
-        t0 = rospy.get_time()
-        future = self.pool_.submit(self.proxy_.call, req)
-        try:
-            res = future.result(timeout=req.timeout * 2 + 10.0)
-        except concurrent.futures.TimeoutError:
-            raise LoopError(f"{self.name_} did not answer within {req.timeout * 2 + 10.0:.0f} s") from None
-        except (rospy.ServiceException, rospy.ROSException) as exc:
-            raise LoopError(f"{self.name_} failed: {exc}") from None
-        t1 = rospy.get_time()
-        return Execution(res.success, res.grasped, res.arm, res.message, t1 - t0, t1)
+BUSY = "busy: another grasp_target call is running"
 
 
 class PolicyNode:
@@ -114,13 +52,19 @@ class PolicyNode:
                                float(rospy.get_param("~heightmap_timeout", 5.0)), on_action=self._publish_action,
                                on_decision=self._visualise)
         self.busy = threading.Lock()
-        self.hm_: dict[float, object] = {}
+        self.feedback_ = None  # action feedback of the running call
+        self.cancels_: dict[str, threading.Event] = {}
         rospy.Service("/pg/infer", Infer, self.on_infer)
         rospy.Service("/pg/grasp_target", GraspTarget, self.on_grasp_target)
+        self.action_ = actionlib.ActionServer("/pg/grasp_target_action", GraspTargetAction, self.on_action_goal,
+                                              self.on_action_cancel, auto_start=False)
+        self.action_.start()
         rospy.loginfo("policy node ready: policy %s%s", self.policy_name, " (dry run)" if self.dry_run else "")
 
     def _publish_action(self, rec) -> None:
         self.pub_decisions.publish(convert.decision_msg(rec, rospy.Time.now()))
+        if self.feedback_ is not None:
+            self.feedback_(rec)
 
     def _visualise(self, rec, shm: StampedHeightmap) -> None:
         target = mask_of(shm.heightmap, rec.target)
@@ -142,26 +86,69 @@ class PolicyNode:
         finally:
             self.busy.release()
 
-    def on_grasp_target(self, req) -> GraspTargetResponse:
+    def _call(self, req, cancelled=None, feedback=None) -> dict:
+        """The fields of a GraspTarget answer (service response or action result) for one call; `req` has target,
+        max_actions, max_failed_grasps and timeout; feedback(rec) is called after every executed action."""
         if self.dry_run:
-            return GraspTargetResponse(success=False, message="dry run: this node executes nothing")
+            return {"success": False, "message": "dry run: this node executes nothing"}
         if not self.busy.acquire(blocking=False):
-            return GraspTargetResponse(success=False, message="busy: another grasp_target call is running")
+            return {"success": False, "message": BUSY}
+        self.feedback_ = feedback
         try:
             limits = LoopLimits(req.max_actions or self.limits.max_actions,
                                 req.max_failed_grasps or self.limits.max_failed_grasps,
                                 req.timeout or self.limits.timeout_s)
-            res = self.loop.run(req.target, limits)
+            res = self.loop.run(req.target, limits, cancelled)
         except (LoopError, ValueError) as exc:
-            return GraspTargetResponse(success=False, message=str(exc))
+            return {"success": False, "message": str(exc)}
         finally:
+            self.feedback_ = None
             self.busy.release()
         rospy.loginfo("grasp_target %s: %s (%d grasps, %d pushes, %.1f s)", req.target or "green", res.message,
                       res.grasps, res.pushes, res.duration)
         stamp = rospy.Time.now()
-        return GraspTargetResponse(success=res.success, grasps=res.grasps, pushes=res.pushes, duration=res.duration,
-                                   wall_time=res.wall_time, message=res.message,
-                                   decisions=[convert.decision_msg(r, stamp) for r in res.actions])
+        return {"success": res.success, "grasps": res.grasps, "pushes": res.pushes, "duration": res.duration,
+                "wall_time": res.wall_time, "message": res.message,
+                "decisions": [convert.decision_msg(r, stamp) for r in res.actions]}
+
+    def on_grasp_target(self, req) -> GraspTargetResponse:
+        return GraspTargetResponse(**self._call(req))
+
+    def on_action_goal(self, handle) -> None:
+        """Accept a goal unless busy (rejected: "busy"), then run it in its own thread; cancel between actions."""
+        if self.dry_run or self.busy.locked():
+            why = "dry run: this node executes nothing" if self.dry_run else BUSY
+            handle.set_rejected(GraspTargetResult(success=False, message=why), why)
+            return
+        handle.set_accepted()
+        threading.Thread(target=self._run_goal, args=(handle,), daemon=True).start()
+
+    def _run_goal(self, handle) -> None:
+        cancel = threading.Event()
+        self.cancels_[handle.get_goal_id().id] = cancel
+        counts = {"grasp": 0, "push": 0}
+
+        def feedback(rec) -> None:
+            if rec.execution is not None and rec.execution.success:
+                counts[rec.decision.primitive] += 1
+            handle.publish_feedback(GraspTargetFeedback(last=convert.decision_msg(rec, rospy.Time.now()),
+                                                        grasps=counts["grasp"], pushes=counts["push"]))
+
+        try:
+            result = GraspTargetResult(**self._call(handle.get_goal(), cancel.is_set, feedback))
+        finally:
+            self.cancels_.pop(handle.get_goal_id().id, None)
+        if result.message == "cancelled":
+            handle.set_canceled(result, "cancelled")
+        elif result.success:
+            handle.set_succeeded(result, result.message)
+        else:
+            handle.set_aborted(result, result.message)
+
+    def on_action_cancel(self, handle) -> None:
+        event = self.cancels_.get(handle.get_goal_id().id)
+        if event is not None:
+            event.set()
 
     def spin_dry_run(self, target: str) -> None:
         """Decide on every new heightmap (nothing executed) until shutdown."""
