@@ -23,7 +23,9 @@ threads="${PG_TRAIN_THREADS:-2}"
 scale="${PG_TRAIN_SCALE:-1.0}"
 py="$repo/.venv/bin/python"
 
-# stage | scenes | iterations | lr | seed (training seeds < 1,000,000; evaluation uses >= 1,000,000)
+# stage | scenes | iterations | lr | seed (training seeds < 1,000,000; evaluation uses >= 1,000,000).
+# --early-grasp-threshold 1.0 (push stage only): the lite grasp net's Q_g runs 0.7-1.1 where its grasps succeed
+# ~45 % of the time, so the default 0.5 made the push stage grasp at once and almost never push.
 STAGES=(
   "grasp-agnostic random-10 2000 5e-4 1"
   "grasp-goal     random-10 1000 2e-4 2"
@@ -44,7 +46,7 @@ for row in "${STAGES[@]}"; do
   fi
   echo "[recipe] $stage: $iters iterations on $scene, lr $lr, seed $seed"
   "$py" -m pg_policy.cli train --stage "$stage" --out "$out" --scene "$scene" --iterations "$iters" --lr "$lr" \
-    --seed "$seed" --threads "$threads" --minutes "$minutes" "${extra[@]}"
+    --seed "$seed" --threads "$threads" --minutes "$minutes" --early-grasp-threshold 1.0 "${extra[@]}"
   done_its=$("$py" -c "import torch; print(torch.load('$out/$stage/last.pt', weights_only=False)['iteration'])")
   if [ "$done_its" -lt "$iters" ]; then
     echo "[recipe] $stage stopped at $done_its/$iters iterations (time cap): rerun to continue"

@@ -89,3 +89,24 @@ def test_a_stage_can_start_from_exported_models(run_dir, tmp_path):
         trainer.env.close()
     with pytest.raises(ModelLoadError, match="this run trains"):
         Trainer(TrainConfig(stage="grasp-goal", out=tmp_path / "other", iterations=1, init=model, goal="mask"))
+
+
+def test_goal_conditioned_episode_ends_when_the_target_is_not_visible(run_dir, tmp_path):
+    import numpy as np
+
+    from pg_policy.heightmap import Heightmap
+    from pg_policy.sim_env import EnvObservation
+    from pg_policy.train_config import TrainConfig
+    from pg_policy.trainer import Trainer
+
+    trainer = Trainer(TrainConfig(stage="grasp-goal", out=tmp_path, iterations=1,
+                                  init=run_dir / "grasp-agnostic" / "last.pt", scene="random-4"))
+    try:
+        obs = trainer._reset()
+        assert not trainer._episode_over(obs)  # _reset only hands out scenes whose target is visible
+        empty = Heightmap(np.zeros((224, 224, 3), np.uint8), np.zeros((224, 224), np.float32),
+                          np.ones((224, 224), bool), 0.002, obs.heightmap.bounds)
+        hidden = EnvObservation(empty, obs.target, np.zeros((224, 224), bool), obs.sim_time)
+        assert trainer._episode_over(hidden)
+    finally:
+        trainer.env.close()

@@ -37,6 +37,8 @@ class TrainConfig:
     replay_samples: int = _f(3, "prioritised replay samples learned with each new transition (one batch)")
     grasp_threshold: float = _f(0.5, "grasp when the masked max Q_g exceeds this (push stage: grasp early)")
     max_pushes: int = _f(5, "push stage: pushes before a grasp is forced")
+    early_grasp_threshold: float = _f(0.5, "push stage: grasp before max_pushes once the masked max Q_g exceeds "
+                                           "this (raise it when the grasp net is over-confident: pushes are rare)")
     max_actions: int = _f(30, "actions per episode before the scene is reset")
     max_failed_grasps: int = _f(5, "failed grasps per episode before the scene is reset")
     checkpoint_every: int = _f(50, "iterations between checkpoints")

@@ -160,22 +160,36 @@ class Trainer:
         if unique:
             self.env.retarget(unique[int(self.rng.integers(len(unique)))])
 
-    def _reset(self) -> object:
-        self.episode += 1
-        kind, n = self.cfg.scene.split("-")
-        seed = (self.cfg.seed * 100_003 + self.episode) % 1_000_000
-        self.env.reset(f"{kind}-{n}", seed=seed)
-        self._pick_target()
-        self.ep_ = {"actions": 0, "failed": 0, "pushes": 0}
-        return self.env.observe()
+    def _reset(self, draws: int = 10) -> object:
+        """A new episode: the next training scene; goal-conditioned stages draw again (up to `draws` scenes) while
+        the picked target is not visible at all (a policy cannot act on a target it does not see)."""
+        for _ in range(draws):
+            self.episode += 1
+            kind, n = self.cfg.scene.split("-")
+            seed = (self.cfg.seed * 100_003 + self.episode) % 1_000_000
+            self.env.reset(f"{kind}-{n}", seed=seed)
+            self._pick_target()
+            self.ep_ = {"actions": 0, "failed": 0, "pushes": 0}
+            obs = self.env.observe()
+            if not self._episode_over(obs):
+                break
+        return obs
 
-    def _episode_over(self) -> bool:
+    def _episode_over(self, obs=None) -> bool:
+        """Budget spent, scene empty, or (goal-conditioned stages) the target gone or not visible in `obs`: an
+        action on an empty goal mask has no target to learn about (its push region and change region are empty)."""
+        from pg_policy.target_mask import MIN_VISIBLE_CELLS
+
         ep, cfg = self.ep_, self.cfg
         if ep["actions"] >= cfg.max_actions or ep["failed"] >= cfg.max_failed_grasps:
             return True
         if len(self.env.world.objects) == 0:
             return True
-        return not self.stage.goal_agnostic and not self.env.target_present()
+        if self.stage.goal_agnostic:
+            return False
+        if not self.env.target_present():
+            return True
+        return obs is not None and int(self._goal(obs)[0].sum()) < MIN_VISIBLE_CELLS
 
     def step(self, obs) -> tuple[dict, object]:
         """One iteration; returns (log row, next observation)."""
@@ -191,7 +205,8 @@ class Trainer:
         else:
             q = qtensor.q_maps(self.nets, hm, goal, ("grasp", "push") if self.stage.uses_push else ("grasp",))
             gmax = qtensor.masked_max(q["grasp"], goal)
-        primitive = choose_primitive(self.stage, gmax, self.ep_["pushes"], cfg.grasp_threshold, cfg.max_pushes)
+        threshold = cfg.early_grasp_threshold if self.stage.name == "push" else cfg.grasp_threshold
+        primitive = choose_primitive(self.stage, gmax, self.ep_["pushes"], threshold, cfg.max_pushes)
         region = goal if primitive == "grasp" else qtensor.push_region(goal, self.geo)
         if explored:
             rot, row, col = explore_action(self.rng, region, cfg.rotations)
@@ -259,7 +274,7 @@ class Trainer:
                 self.iteration += 1
                 bar.update(1)
                 bar.set_postfix(grasp_success=f"{np.mean(recent):.2f}" if recent else "-", eps=row["epsilon"])
-                if self._episode_over():
+                if self._episode_over(obs):
                     obs = self._reset()
                 if self.iteration % cfg.checkpoint_every == 0:
                     f.flush()
