@@ -12,8 +12,11 @@ export ROS_PYTHON_VERSION=3
 # catkin's setup scripts read unset variables: allow that while sourcing them, even under `set -u`.
 _pg_nounset=$([[ $- == *u* ]] && echo 1 || true)
 set +u
-# shellcheck disable=SC1091
-source "$_pg_devel/setup.bash"
+# Sourced from a function with no arguments: catkin's setup.sh hands "$@" to _setup_util.py, so a caller's own
+# arguments (scripts/demo.sh --help) would otherwise reach it.
+_pg_source_devel() { local f="$1"; set --; source "$f"; }  # shellcheck disable=SC1090
+_pg_source_devel "$_pg_devel/setup.bash"
+unset -f _pg_source_devel
 [ -n "$_pg_nounset" ] && set -u
 # tests/ros is the pg_tests package of integration test nodes (not built, found through ROS_PACKAGE_PATH).
 export ROS_PACKAGE_PATH="$_pg_repo/tests/ros:${ROS_PACKAGE_PATH:-}"
