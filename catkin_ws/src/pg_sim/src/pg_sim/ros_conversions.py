@@ -14,6 +14,7 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from pg_policy.geometry import CameraSpec
+from pg_policy.ros.convert import image_msg
 from pg_sim.runtime_types import CameraCapture, JointStateData, ResetRequest, ResetResult, SceneState
 from pg_sim.sensor_data import CLOUD_FIELDS, MarkerPart, ObjectMarker
 from pg_sim.trajectory import JointTrajectory, TrajectoryPoint
@@ -44,10 +45,7 @@ def trajectory(msg) -> JointTrajectory:  # trajectory_msgs/JointTrajectory
 
 
 def image(array: np.ndarray, encoding: str, t: float, frame: str) -> Image:
-    a = np.ascontiguousarray(array)
-    h, w = a.shape[:2]
-    return Image(header=header(t, frame), height=h, width=w, encoding=encoding, is_bigendian=0,
-                 step=a.strides[0], data=a.tobytes())
+    return image_msg(array, encoding, header(t, frame))
 
 
 def camera_info(spec: CameraSpec, t: float, frame: str) -> CameraInfo:
