@@ -110,3 +110,15 @@ def test_goal_conditioned_episode_ends_when_the_target_is_not_visible(run_dir, t
         assert trainer._episode_over(hidden)
     finally:
         trainer.env.close()
+
+
+def test_guided_exploration_takes_the_heuristics_actions(run_dir, tmp_path):
+    from pg_policy.train_config import TrainConfig
+    from pg_policy.trainer import Trainer
+
+    cfg = TrainConfig(stage="push", out=tmp_path, iterations=2, init=run_dir / "grasp-goal" / "last.pt",
+                      scene="dense-4", epsilon_start=1.0, epsilon_end=1.0, guided_exploration=1.0,
+                      replay_capacity=8, max_actions=4)
+    Trainer(cfg).run()
+    rows = list(csv.DictReader((tmp_path / "push" / "log.csv").open()))
+    assert len(rows) == 2 and all(r["explored"] == "2" for r in rows)

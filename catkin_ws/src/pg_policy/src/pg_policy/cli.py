@@ -18,6 +18,7 @@ COMMANDS: dict[str, str] = {
     "eval": "pg_policy.eval_cli:add_parser",
     "bench": "pg_policy.bench_cli:add_parser",
     "replay": "pg_policy.replay_cli:add_parser",
+    "compare": "pg_policy.compare_cli:add_parser",
 }
 
 

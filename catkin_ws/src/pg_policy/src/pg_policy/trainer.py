@@ -23,6 +23,7 @@ from pg_policy.replay import ReplayBuffer, Transition
 from pg_policy.stages import STAGES, choose_primitive, epsilon, explore_action
 from pg_policy.train_config import TrainConfig
 
+# explored: 0 = greedy, 1 = uniformly random, 2 = the heuristic's action (guided exploration)
 LOG_FIELDS = ["iteration", "episode", "primitive", "rotation", "row", "col", "q", "explored", "reward", "grasped",
               "success", "epsilon", "loss", "sim_s", "wall_s"]
 
@@ -50,6 +51,11 @@ class Trainer:
         self.rng = np.random.default_rng(cfg.seed)
         self._restore()
         self.env = SimEnv(self.geo)
+        self.guide = None
+        if cfg.guided_exploration > 0 and self.stage.uses_push:
+            from pg_policy.heuristic import HeuristicPlanner
+
+            self.guide = HeuristicPlanner(self.geo)
         self.log_ = self.dir / "log.csv"
 
     # -- checkpoints -------------------------------------------------------------------------------------------
@@ -208,7 +214,10 @@ class Trainer:
         threshold = cfg.early_grasp_threshold if self.stage.name == "push" else cfg.grasp_threshold
         primitive = choose_primitive(self.stage, gmax, self.ep_["pushes"], threshold, cfg.max_pushes)
         region = goal if primitive == "grasp" else qtensor.push_region(goal, self.geo)
-        if explored:
+        if explored and self.guide is not None and self.rng.random() < cfg.guided_exploration:
+            act = self.guide.plan(hm, goal, [], None, self.rng, self.ep_["pushes"])
+            primitive, rot, row, col, explored = act.primitive, act.rotation, act.row, act.col, 2
+        elif explored:
             rot, row, col = explore_action(self.rng, region, cfg.rotations)
         else:
             rot, row, col = qtensor.masked_argmax(q[primitive], region)

@@ -1,0 +1,51 @@
+"""pushgrasp compare: results.json files of several policies -> tables per family, paper lines, target check."""
+
+import json
+
+import pytest
+
+from pg_policy.cli import main
+from pg_policy.compare_report import family_of, load_policy, markdown
+
+
+def _trial(scene, seed, completed, grasps, target_grasps, pushes):
+    return {"scene": scene, "seed": seed, "completed": completed,
+            "termination": "completed" if completed else "failed_grasps", "grasps": grasps,
+            "target_grasps": target_grasps, "failed_grasps": grasps - target_grasps, "pushes": pushes,
+            "refused": 0, "actions": []}
+
+
+def _write(folder, trials):
+    folder.mkdir(parents=True)
+    (folder / "results.json").write_text(json.dumps({"trials": trials}))
+
+
+@pytest.fixture
+def two_policies(tmp_path):
+    good = [_trial("packed/case01", 1000000 + i, True, 1, 1, 2) for i in range(4)]
+    good += [_trial("random-10", 1000000 + i, True, 1, 1, 0) for i in range(4)]
+    weak = [_trial("packed/case01", 1000000 + i, i < 2, 2, 1 if i < 2 else 0, 0) for i in range(4)]
+    _write(tmp_path / "good" / "packed", good[:4])
+    _write(tmp_path / "good" / "random", good[4:])
+    _write(tmp_path / "weak" / "packed", weak)
+    return tmp_path
+
+
+def test_tables_pool_families_and_check_targets(two_policies):
+    good, weak = load_policy("good", two_policies / "good"), load_policy("weak", two_policies / "weak")
+    text = markdown([good, weak], check="weak")
+    assert "| packed/case01 | 100.0 ± 0.0 | 100.0 ± 0.0 | 2.00 ± 0.00 | 50.0 ± 28.9 | 25.0 ± 14.4 |" in text
+    assert "| random-10 | 100.0 ± 0.0 | 100.0 ± 0.0 | 0.00 ± 0.00 | n/a | n/a | n/a |" in text
+    assert "paper (Xu et al.)" in text
+    assert "0/1 scenes meet" in text and "packed/case01: C 50.0 % < 98 %; GS 25.0 % < 61.7 %" in text
+    assert "packed: GS 25.0 % does not beat good's 100.0 %" in text
+
+
+def test_cli_writes_markdown_and_png_and_rejects_bad_input(two_policies, tmp_path):
+    out = tmp_path / "report" / "cmp.md"
+    assert main(["compare", f"good={two_policies / 'good'}", f"weak={two_policies / 'weak'}", "--out", str(out)]) == 0
+    assert out.exists() and out.with_suffix(".png").stat().st_size > 1000
+    assert main(["compare", f"none={tmp_path / 'nothing'}", "--out", str(out)]) == 2  # no results.json
+    assert main(["compare", f"good={two_policies / 'good'}", "--out", str(out), "--check", "other"]) == 2
+    with pytest.raises(ValueError, match="not in the protocol"):
+        family_of("kitchen/case1")
