@@ -118,7 +118,7 @@ def test_guided_exploration_takes_the_heuristics_actions(run_dir, tmp_path):
 
     cfg = TrainConfig(stage="push", out=tmp_path, iterations=2, init=run_dir / "grasp-goal" / "last.pt",
                       scene="dense-4", epsilon_start=1.0, epsilon_end=1.0, guided_exploration=1.0,
-                      replay_capacity=8, max_actions=4)
+                      early_grasp_threshold=10.0, replay_capacity=8, max_actions=4)
     Trainer(cfg).run()
     rows = list(csv.DictReader((tmp_path / "push" / "log.csv").open()))
-    assert len(rows) == 2 and all(r["explored"] == "2" for r in rows)
+    assert len(rows) == 2 and all(r["primitive"] == "push" and r["explored"] == "2" for r in rows)

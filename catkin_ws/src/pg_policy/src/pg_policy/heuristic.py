@@ -358,6 +358,13 @@ class HeuristicPlanner:
         return Action("push", int(rng.integers(self.rotations)), int(r), int(c), -1e9, "fallback: random push")
 
     # -- top level -------------------------------------------------------------------------------------------------
+    def push_of(self, hm: Heightmap, target: np.ndarray) -> Action | None:
+        """The rule's push of a visible target (rule 2) whether or not a grasp is free; None when the target has
+        fewer than `min_target_cells` cells or no push start is free. Used to guide exploration in training."""
+        if int(target.sum()) < self.p.min_target_cells:
+            return None
+        return self.best_push(hm, target, _Cells(hm, self._centre(hm, target), self.p.window))
+
     def plan(self, hm: Heightmap, target: np.ndarray, tabu: list[tuple[int, float, float]],
              last_seen: np.ndarray | None, rng: np.random.Generator, pushes_in_row: int = 0) -> Action:
         """The action of the rule (module docstring) for a target mask ((H, W) bool, possibly empty).

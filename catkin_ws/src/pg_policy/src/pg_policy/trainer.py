@@ -23,7 +23,7 @@ from pg_policy.replay import ReplayBuffer, Transition
 from pg_policy.stages import STAGES, choose_primitive, epsilon, explore_action
 from pg_policy.train_config import TrainConfig
 
-# explored: 0 = greedy, 1 = uniformly random, 2 = the heuristic's action (guided exploration)
+# explored: 0 = greedy, 1 = uniformly random, 2 = the heuristic's push (guided exploration)
 LOG_FIELDS = ["iteration", "episode", "primitive", "rotation", "row", "col", "q", "explored", "reward", "grasped",
               "success", "epsilon", "loss", "sim_s", "wall_s"]
 
@@ -214,9 +214,12 @@ class Trainer:
         threshold = cfg.early_grasp_threshold if self.stage.name == "push" else cfg.grasp_threshold
         primitive = choose_primitive(self.stage, gmax, self.ep_["pushes"], threshold, cfg.max_pushes)
         region = goal if primitive == "grasp" else qtensor.push_region(goal, self.geo)
-        if explored and self.guide is not None and self.rng.random() < cfg.guided_exploration:
-            act = self.guide.plan(hm, goal, [], None, self.rng, self.ep_["pushes"])
-            primitive, rot, row, col, explored = act.primitive, act.rotation, act.row, act.col, 2
+        guided = None
+        if explored and primitive == "push" and self.guide is not None \
+                and self.rng.random() < cfg.guided_exploration:
+            guided = self.guide.push_of(hm, goal)
+        if guided is not None:
+            rot, row, col, explored = guided.rotation, guided.row, guided.col, 2
         elif explored:
             rot, row, col = explore_action(self.rng, region, cfg.rotations)
         else:
