@@ -1,8 +1,10 @@
-"""`pushgrasp infer`: draw the Q maps and the decision a policy would take on a scene (nothing is executed)."""
+"""`pushgrasp infer`: draw the Q maps and the decision a policy would take on a scene (nothing is executed), or with
+--steps N a rollout: one PNG per decision (OUT_01.png ...) and the scene after the last action (OUT_after.png)."""
 
 from __future__ import annotations
 
 import argparse
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +17,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scene", required=True, help="scene name (see `pushgrasp scene list`), YAML file, or random-N")
     p.add_argument("--seed", type=int, default=1_000_000, help="seed for random-N scenes (default 1000000)")
     p.add_argument("--target", default=None, help="target colour (default: the scene's)")
-    p.add_argument("--out", type=Path, required=True, help="output PNG")
+    p.add_argument("--out", type=Path, required=True, help="output PNG (with --steps: the stem of the PNG sequence)")
+    p.add_argument("--steps", type=int, default=0,
+                   help="execute up to N decisions in the simulator (stops once the target is grasped), one PNG "
+                        "each plus the scene after; default 0: draw the first decision, execute nothing")
     p.set_defaults(run=_run)
 
 
@@ -48,10 +53,37 @@ def draw(out: Path, obs, decision, q: dict[str, np.ndarray], title: str) -> Path
         ax.set_title(name)
         ax.set_xlabel("col (x)")
         ax.set_ylabel("row (y)")
-    fig.suptitle(title)
+    fig.suptitle(textwrap.fill(title, 50 * len(panels)))
     fig.tight_layout()
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out)
+    plt.close(fig)
+    return out
+
+
+def _title(scene: str, obs, d) -> str:
+    return (f"{scene} target {obs.target}: {d.primitive} at ({d.x:.3f}, {d.y:.3f}, {d.z:.3f}) m, "
+            f"yaw {np.degrees(d.yaw):.1f} deg, q {d.q:.3f} (masked max Q_g {d.grasp_q:.3f})")
+
+
+def draw_scene(out: Path, obs, title: str) -> Path:
+    """The colour heightmap with the target outlined."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pg_policy.target_mask import target_mask
+
+    hm = obs.heightmap
+    fig, ax = plt.subplots(figsize=(5, 5), dpi=100)
+    ax.imshow(hm.color, origin="lower")
+    mask = target_mask(hm.color, hm.valid, obs.target)
+    if mask.any():
+        ax.contour(mask.astype(float), levels=[0.5], colors="white", linewidths=1.5)
+    ax.set_title(title)
+    fig.tight_layout()
     fig.savefig(out)
     plt.close(fig)
     return out
@@ -61,16 +93,37 @@ def _run(args: argparse.Namespace) -> int:
     from pg_policy.policies import PolicyOptions, make_policy
     from pg_policy.sim_env import SimEnv
 
+    if args.steps < 0:
+        raise ValueError("--steps must be >= 0")
     policy = make_policy(args.model, PolicyOptions(seed=args.seed))
     with SimEnv() as env:
         obs = env.reset(args.scene, seed=args.seed)
         if args.target:
             obs = type(obs)(obs.heightmap, args.target, obs.truth_target, obs.sim_time)
         policy.reset(args.seed)
+        if args.steps == 0:
+            d = policy.act(obs)
+            print(_title(args.scene, obs, d))
+            print(f"wrote {draw(args.out, obs, d, policy.q_maps(), _title(args.scene, obs, d))}")
+            return 0
+        return _rollout(args, env, policy, obs)
+
+
+def _rollout(args: argparse.Namespace, env, policy, obs) -> int:
+    """Decide, draw, execute, up to args.steps times; exit status 0 once the target is grasped, else 1."""
+    stem = args.out.with_suffix("")
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    for k in range(1, args.steps + 1):
         d = policy.act(obs)
-    title = (f"{args.scene} target {obs.target}: {d.primitive} at ({d.x:.3f}, {d.y:.3f}, {d.z:.3f}) m, "
-             f"yaw {np.degrees(d.yaw):.1f} deg, q {d.q:.3f} (masked max Q_g {d.grasp_q:.3f})")
-    path = draw(args.out, obs, d, policy.q_maps(), title)
-    print(title)
-    print(f"wrote {path}")
-    return 0
+        title = f"step {k}: " + _title(args.scene, obs, d)
+        draw(Path(f"{stem}_{k:02d}.png"), obs, d, policy.q_maps(), title)
+        res = env.step(d.primitive, d.x, d.y, d.z, d.yaw)
+        print(f"{title} -> {res.message}{' (target grasped)' if res.target_grasped else ''}")
+        nxt = env.observe()
+        obs = type(nxt)(nxt.heightmap, args.target, nxt.truth_target, nxt.sim_time) if args.target else nxt
+        if res.target_grasped:
+            break
+    after = draw_scene(Path(f"{stem}_after.png"), obs, f"after {k} action(s): target "
+                       f"{'grasped' if res.target_grasped else 'not grasped'}")
+    print(f"wrote {stem}_01.png .. {stem}_{k:02d}.png and {after}")
+    return 0 if res.target_grasped else 1

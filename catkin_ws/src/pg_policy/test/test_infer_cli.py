@@ -1,0 +1,20 @@
+"""pushgrasp infer: one decision drawn without acting, and a rollout with one PNG per decision (real PyBullet)."""
+
+from pg_policy.cli import main
+
+
+def test_infer_draws_one_decision(tmp_path, capsys):
+    out = tmp_path / "q.png"
+    assert main(["infer", "--model", "heuristic", "--scene", "packed/case03", "--out", str(out)]) == 0
+    assert out.stat().st_size > 10_000
+    assert "packed/case03 target green" in capsys.readouterr().out
+
+
+def test_infer_rollout_writes_a_sequence_until_the_target_is_grasped(tmp_path, capsys):
+    out = tmp_path / "seq" / "case03.png"
+    assert main(["infer", "--model", "heuristic", "--scene", "packed/case03", "--out", str(out), "--steps", "6"]) == 0
+    text = capsys.readouterr().out
+    steps = sorted(p.name for p in out.parent.glob("case03_[0-9]*.png"))
+    assert steps and steps[0] == "case03_01.png" and (out.parent / "case03_after.png").exists()
+    assert text.count("-> ") == len(steps) and "(target grasped)" in text.splitlines()[-2]
+    assert main(["infer", "--model", "heuristic", "--scene", "packed/case03", "--out", str(out), "--steps", "-1"]) == 2
