@@ -133,8 +133,11 @@ def test_seed_policy_and_scene_expansion():
     packed = expand_scenes(["packed"])
     assert packed == [f"packed/case{i:02d}" for i in range(1, 10)]
     assert expand_scenes(["household", "random-10"])[-1] == "random-10" and len(expand_scenes(["household"])) == 4
+    assert expand_scenes(["dense-8"]) == ["dense-8"]
     with pytest.raises(ValueError, match="packed/case01"):
         expand_scenes(["packed/case1"])
+    with pytest.raises(ValueError, match="at least one object"):
+        expand_scenes(["dense-0"])
 
 
 def test_jitter_moves_the_scene_rigidly_and_reproducibly():

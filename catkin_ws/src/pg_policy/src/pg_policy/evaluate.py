@@ -218,10 +218,10 @@ def check_seed(seed: int, allow_train_seeds: bool = False) -> None:
 
 def expand_scenes(items: Sequence[str]) -> list[str]:
     """Scene arguments -> scene names/paths: "packed" and "household" expand to their shipped scenes, "random-N"
-    stays, anything else must be a shipped scene name or a YAML file. Raises SceneError (ValueError) for an unknown
+    and "dense-N" (generated from the trial seed) stay, anything else must be a shipped scene name or a YAML file. Raises SceneError (ValueError) for an unknown
     one (with close matches) and ValueError for an empty family or list."""
     from pg_sim.scene import find_scene, list_scenes
-    from pg_sim.scene_source import RANDOM
+    from pg_sim.scene_source import GENERATED
 
     out: list[str] = []
     for item in items:
@@ -230,9 +230,9 @@ def expand_scenes(items: Sequence[str]) -> list[str]:
             if not names:
                 raise ValueError(f"scene family {item!r} has no scenes in the scene folders")
             out += names
-        elif RANDOM.match(item):
-            if int(RANDOM.match(item).group(1)) < 1:  # type: ignore[union-attr]
-                raise ValueError(f"{item}: a random scene needs at least one object")
+        elif GENERATED.match(item):
+            if int(GENERATED.match(item).group(2)) < 1:  # type: ignore[union-attr]
+                raise ValueError(f"{item}: a generated scene needs at least one object")
             out.append(item)
         else:
             find_scene(item)
@@ -265,12 +265,12 @@ def jitter_scene(scene: Any, rng: np.random.Generator, xy: float, yaw: float) ->
 
 
 def trial_scene(name: str, seed: int, jitter_xy: float, jitter_yaw: float) -> Any:
-    """What env.reset gets for trial `seed` of scene `name`: "random-N" unchanged, else the loaded and jittered
+    """What env.reset gets for trial `seed` of scene `name`: "random-N" / "dense-N" unchanged, else the loaded and jittered
     SceneSpec (jitter drawn from `seed`)."""
     from pg_sim.scene import load_scene
-    from pg_sim.scene_source import RANDOM
+    from pg_sim.scene_source import GENERATED
 
-    if RANDOM.match(name):
+    if GENERATED.match(name):
         return name
     return jitter_scene(load_scene(name), np.random.default_rng(seed), jitter_xy, jitter_yaw)
 

@@ -7,6 +7,8 @@ import re
 from pg_sim.world import World
 
 RANDOM = re.compile(r"^random-(\d+)$")
+# scenes generated from a seed: random-N (dropped over +-0.11 m) and dense-N (over +-0.05 m, training clutter)
+GENERATED = re.compile(r"^(random|dense)-(\d+)$")
 
 
 def make_world_with_scene(source: str, seed: int = 0, gui: bool = False) -> World:
