@@ -218,8 +218,9 @@ def check_seed(seed: int, allow_train_seeds: bool = False) -> None:
 
 def expand_scenes(items: Sequence[str]) -> list[str]:
     """Scene arguments -> scene names/paths: "packed" and "household" expand to their shipped scenes, "random-N"
-    and "dense-N" (generated from the trial seed) stay, anything else must be a shipped scene name or a YAML file. Raises SceneError (ValueError) for an unknown
-    one (with close matches) and ValueError for an empty family or list."""
+    and "dense-N" (generated from the trial seed) stay, anything else must be a shipped scene name or a YAML file.
+    Raises SceneError (ValueError) for an unknown one (with close matches) and ValueError for an empty family or
+    list."""
     from pg_sim.scene import find_scene, list_scenes
     from pg_sim.scene_source import GENERATED
 
