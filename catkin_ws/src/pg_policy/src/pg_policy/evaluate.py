@@ -266,8 +266,8 @@ def jitter_scene(scene: Any, rng: np.random.Generator, xy: float, yaw: float) ->
 
 
 def trial_scene(name: str, seed: int, jitter_xy: float, jitter_yaw: float) -> Any:
-    """What env.reset gets for trial `seed` of scene `name`: "random-N" / "dense-N" unchanged, else the loaded and jittered
-    SceneSpec (jitter drawn from `seed`)."""
+    """What env.reset gets for trial `seed` of scene `name`: "random-N" / "dense-N" unchanged, else the loaded and
+    jittered SceneSpec (jitter drawn from `seed`)."""
     from pg_sim.scene import load_scene
     from pg_sim.scene_source import GENERATED
 
