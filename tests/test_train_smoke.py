@@ -122,3 +122,15 @@ def test_guided_exploration_takes_the_heuristics_actions(run_dir, tmp_path):
     Trainer(cfg).run()
     rows = list(csv.DictReader((tmp_path / "push" / "log.csv").open()))
     assert len(rows) == 2 and all(r["primitive"] == "push" and r["explored"] == "2" for r in rows)
+
+
+def test_guided_exploration_takes_the_heuristics_free_grasps(run_dir, tmp_path):
+    from pg_policy.train_config import TrainConfig
+    from pg_policy.trainer import Trainer
+
+    cfg = TrainConfig(stage="grasp-goal", out=tmp_path, iterations=2, init=run_dir / "grasp-agnostic" / "last.pt",
+                      scene="random-4", epsilon_start=1.0, epsilon_end=1.0, guided_exploration=1.0,
+                      replay_capacity=8, max_actions=4)
+    Trainer(cfg).run()
+    rows = list(csv.DictReader((tmp_path / "grasp-goal" / "log.csv").open()))
+    assert len(rows) == 2 and all(r["primitive"] == "grasp" and r["explored"] == "2" for r in rows)

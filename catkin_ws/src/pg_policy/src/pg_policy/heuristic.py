@@ -365,6 +365,18 @@ class HeuristicPlanner:
             return None
         return self.best_push(hm, target, _Cells(hm, self._centre(hm, target), self.p.window))
 
+    def grasp_of(self, hm: Heightmap, target: np.ndarray) -> Action | None:
+        """The rule's free grasp of a visible target (rule 1), None when there is none or the target has fewer than
+        `min_target_cells` cells. Used to guide exploration in training."""
+        if int(target.sum()) < self.p.min_target_cells:
+            return None
+        others = (hm.height > self.p.occupied) & ~_dilate(target, 1)
+        return self.best_grasp(hm, target, others, _Cells(hm, self._centre(hm, target), self.p.window), [])
+
+    def guide(self, primitive: str, hm: Heightmap, target: np.ndarray) -> Action | None:
+        """`push_of` or `grasp_of` by primitive name."""
+        return self.push_of(hm, target) if primitive == "push" else self.grasp_of(hm, target)
+
     def plan(self, hm: Heightmap, target: np.ndarray, tabu: list[tuple[int, float, float]],
              last_seen: np.ndarray | None, rng: np.random.Generator, pushes_in_row: int = 0) -> Action:
         """The action of the rule (module docstring) for a target mask ((H, W) bool, possibly empty).

@@ -39,9 +39,10 @@ class TrainConfig:
     max_pushes: int = _f(5, "push stage: pushes before a grasp is forced")
     early_grasp_threshold: float = _f(0.5, "push stage: grasp before max_pushes once the masked max Q_g exceeds "
                                            "this (raise it when the grasp net is over-confident: pushes are rare)")
-    guided_exploration: float = _f(0.0, "push and alternate stages: fraction of the exploratory (epsilon) pushes "
-                                        "taken from the heuristic baseline's push rule instead of uniformly at "
-                                        "random; rewards stay the simulator's (0 = the paper's uniform exploration)")
+    guided_exploration: float = _f(0.0, "goal-conditioned stages: fraction of the exploratory (epsilon) actions "
+                                        "taken from the heuristic baseline's push rule / free-grasp rule instead of "
+                                        "uniformly at random (uniform when the rule has none); rewards stay the "
+                                        "simulator's (0 = the paper's uniform exploration)")
     max_actions: int = _f(30, "actions per episode before the scene is reset")
     max_failed_grasps: int = _f(5, "failed grasps per episode before the scene is reset")
     checkpoint_every: int = _f(50, "iterations between checkpoints")

@@ -23,7 +23,7 @@ from pg_policy.replay import ReplayBuffer, Transition
 from pg_policy.stages import STAGES, choose_primitive, epsilon, explore_action
 from pg_policy.train_config import TrainConfig
 
-# explored: 0 = greedy, 1 = uniformly random, 2 = the heuristic's push (guided exploration)
+# explored: 0 = greedy, 1 = uniformly random, 2 = the heuristic's push or free grasp (guided exploration)
 LOG_FIELDS = ["iteration", "episode", "primitive", "rotation", "row", "col", "q", "explored", "reward", "grasped",
               "success", "epsilon", "loss", "sim_s", "wall_s"]
 
@@ -52,7 +52,7 @@ class Trainer:
         self._restore()
         self.env = SimEnv(self.geo)
         self.guide = None
-        if cfg.guided_exploration > 0 and self.stage.uses_push:
+        if cfg.guided_exploration > 0 and not self.stage.goal_agnostic:
             from pg_policy.heuristic import HeuristicPlanner
 
             self.guide = HeuristicPlanner(self.geo)
@@ -215,9 +215,8 @@ class Trainer:
         primitive = choose_primitive(self.stage, gmax, self.ep_["pushes"], threshold, cfg.max_pushes)
         region = goal if primitive == "grasp" else qtensor.push_region(goal, self.geo)
         guided = None
-        if explored and primitive == "push" and self.guide is not None \
-                and self.rng.random() < cfg.guided_exploration:
-            guided = self.guide.push_of(hm, goal)
+        if explored and self.guide is not None and self.rng.random() < cfg.guided_exploration:
+            guided = self.guide.guide(primitive, hm, goal)
         if guided is not None:
             rot, row, col, explored = guided.rotation, guided.row, guided.col, 2
         elif explored:
