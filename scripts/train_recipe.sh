@@ -23,18 +23,21 @@ threads="${PG_TRAIN_THREADS:-2}"
 scale="${PG_TRAIN_SCALE:-1.0}"
 py="$repo/.venv/bin/python"
 
-# stage | scenes | iterations | lr | seed (training seeds < 1,000,000; evaluation uses >= 1,000,000).
-# --early-grasp-threshold 1.0 (push stage only): the lite grasp net's Q_g runs 0.7-1.1 where its grasps succeed
-# ~45 % of the time, so the default 0.5 made the push stage grasp at once and almost never push.
+# stage | scenes | iterations | lr | seed | extra flags (training seeds < 1,000,000; evaluation uses >= 1,000,000).
+# --early-grasp-threshold 1.0 (push stage): the lite grasp net's Q_g runs 0.7-1.1 where its grasps succeed ~45 %
+# of the time, so the default 0.5 made the push stage grasp at once and almost never push; --grasp-threshold 0.9
+# (alternate) for the same reason. --guided-exploration: part of the exploratory actions come from the heuristic's
+# push / free-grasp rules (docs/ARCHITECTURE.md).
 STAGES=(
   "grasp-agnostic random-10 2000 5e-4 1"
-  "grasp-goal     random-10 1000 2e-4 2"
-  "push           dense-8   1000 2e-4 3"
-  "alternate      dense-8   1000 1e-4 4"
+  "grasp-goal     random-10 1000 2e-4 2 --guided-exploration 0.5"
+  "push           dense-8   1000 2e-4 3 --guided-exploration 0.8 --early-grasp-threshold 1.0"
+  "alternate      dense-8   1000 1e-4 4 --guided-exploration 0.7 --grasp-threshold 0.9"
 )
 
 for row in "${STAGES[@]}"; do
-  read -r stage scene iters lr seed <<< "$row"
+  read -r stage scene iters lr seed flags <<< "$row"
+  read -r -a stage_flags <<< "${flags:-}"
   iters=$("$py" -c "print(max(1, round($iters * $scale)))")
   extra=()
   if [ "$stage" = "grasp-agnostic" ] && [ -n "$init" ]; then
@@ -46,7 +49,7 @@ for row in "${STAGES[@]}"; do
   fi
   echo "[recipe] $stage: $iters iterations on $scene, lr $lr, seed $seed"
   "$py" -m pg_policy.cli train --stage "$stage" --out "$out" --scene "$scene" --iterations "$iters" --lr "$lr" \
-    --seed "$seed" --threads "$threads" --minutes "$minutes" --early-grasp-threshold 1.0 "${extra[@]}"
+    --seed "$seed" --threads "$threads" --minutes "$minutes" "${stage_flags[@]}" "${extra[@]}"
   done_its=$("$py" -c "import torch; print(torch.load('$out/$stage/last.pt', weights_only=False)['iteration'])")
   if [ "$done_its" -lt "$iters" ]; then
     echo "[recipe] $stage stopped at $done_its/$iters iterations (time cap): rerun to continue"
