@@ -168,6 +168,18 @@ def test_learned_policies_from_exported_files(model_dir):
         make_policy("grasp-only", PolicyOptions(models=(model_dir / "push.pt",)))
 
 
+
+def test_learned_push_budget_forces_a_grasp_after_that_many_pushes(model_dir):
+    obs = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (-0.1, 0.1, CUBE, CUBE, "blue")])
+    pol = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=1e9, push_budget=2))
+    assert [pol.act(obs).primitive for _ in range(4)] == ["push", "push", "grasp", "push"]
+    pol.reset(0)
+    assert pol.act(obs).primitive == "push" and pol.pushes_in_row == 1
+    none = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=1e9))  # metadata: no budget
+    assert none.push_budget == 0 and [none.act(obs).primitive for _ in range(3)] == ["push"] * 3
+    with pytest.raises(ValueError, match="push budget"):
+        make_policy("learned", PolicyOptions(models=(model_dir,), push_budget=-1))
+
 def test_heuristic_uncovers_a_hidden_target():
     obs = _scene([(0.0, 0.0, CUBE, CUBE, "blue"), (0.1, 0.1, CUBE, CUBE, "red")])  # no green cell at all
     pol = make_policy("heuristic")

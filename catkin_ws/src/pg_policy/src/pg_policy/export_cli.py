@@ -18,6 +18,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, required=True, help="output directory for grasp.pt and push.pt")
     p.add_argument("--threshold", type=float, default=None,
                    help="grasp threshold on the masked max Q_g stored in the metadata (default: the run's)")
+    p.add_argument("--push-budget", type=int, default=0,
+                   help="pushes in a row after which the learned policy grasps even below the threshold, stored "
+                        "in the metadata (default 0: none, the paper's rule)")
     p.set_defaults(run=_run)
 
 
@@ -31,7 +34,8 @@ def latest_checkpoint(run: Path, stage: str | None) -> Path:
     raise FileNotFoundError(f"no checkpoint for stage(s) {', '.join(stages)} under {run}")
 
 
-def export_run(run: Path, out: Path, stage: str | None = None, threshold: float | None = None) -> list[Path]:
+def export_run(run: Path, out: Path, stage: str | None = None, threshold: float | None = None,
+               push_budget: int = 0) -> list[Path]:
     import torch
 
     from pg_policy.model_io import export_qnet
@@ -42,17 +46,19 @@ def export_run(run: Path, out: Path, stage: str | None = None, threshold: float 
     cfg = ck["config"]
     qcfg = QNetConfig(backbone=cfg["backbone"], goal=cfg["goal"], rotations=int(cfg["rotations"]))
     thr = float(threshold if threshold is not None else cfg["grasp_threshold"])
+    if push_budget < 0:
+        raise ValueError(f"--push-budget must be >= 0, got {push_budget}")
     written = []
     for role in ("grasp", "push"):
         net = build_qnet(qcfg)
         net.load_state_dict(ck["nets"][role])
         meta = {"role": role, "stage": ck["stage"], "iteration": int(ck["iteration"]),
-                "thresholds": {"grasp_q": thr}, "source": str(ck_path)}
+                "thresholds": {"grasp_q": thr, "push_budget": int(push_budget)}, "source": str(ck_path)}
         written.append(export_qnet(net, Path(out) / f"{role}.pt", meta))
     return written
 
 
 def _run(args: argparse.Namespace) -> int:
-    for path in export_run(args.run_dir, args.out, args.stage, args.threshold):
+    for path in export_run(args.run_dir, args.out, args.stage, args.threshold, args.push_budget):
         print(f"wrote {path}")
     return 0

@@ -19,6 +19,7 @@ writes, or as files (grasp first); see `resolve_models`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -54,13 +55,15 @@ class Policy(Protocol):
 class PolicyOptions:
     """models: model files/directories (learned policies); seed: default seed before the first reset; geometry:
     the workspace config (default: pg_policy.geometry.load()); device: torch device; grasp_threshold: overrides the
-    model metadata's threshold (learned)."""
+    model metadata's threshold (learned); push_budget: overrides the metadata's push budget (learned: after this
+    many pushes in a row it grasps even below the threshold; 0 = no budget)."""
 
     models: tuple[Path, ...] = ()
     seed: int = 0
     geometry: Geometry | None = None
     device: str = "cpu"
     grasp_threshold: float | None = None
+    push_budget: int | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -236,7 +239,10 @@ def threshold_from_metadata(metadata: Any) -> float:
 
 
 class LearnedPolicy(_Base):
-    """Grasp and push nets + pg_policy.decision.decide (grasp if masked max Q_g > threshold, else push)."""
+    """Grasp and push nets + pg_policy.decision.decide (grasp if masked max Q_g > threshold, else push); with a push
+    budget B > 0 (model metadata thresholds.push_budget or PolicyOptions.push_budget) it grasps after B pushes in a
+    row whatever Q_g says, as the paper's push stage does in training (a deviation at test time: see
+    docs/ARCHITECTURE.md)."""
 
     name = "learned"
 
@@ -247,6 +253,16 @@ class LearnedPolicy(_Base):
         self.nets = _load_nets(grasp, push, opts.device)
         self.threshold = (opts.grasp_threshold if opts.grasp_threshold is not None
                           else threshold_from_metadata(self.nets.metadata["grasp"]))
+        budget = opts.push_budget if opts.push_budget is not None else \
+            (self.nets.metadata["grasp"].get("thresholds") or {}).get("push_budget", 0)
+        if int(budget) < 0:
+            raise ValueError(f"push budget must be >= 0 (0 = none), got {budget}")
+        self.push_budget = int(budget)
+        self.pushes_in_row = 0
+
+    def reset(self, seed: int | None = None) -> None:
+        super().reset(seed)
+        self.pushes_in_row = 0
 
     def act(self, obs: Any) -> Decision:
         from pg_policy.decision import decide
@@ -254,7 +270,10 @@ class LearnedPolicy(_Base):
         hm = obs.heightmap
         mask = _goal_or_all(obs)
         self._q = self.nets.q_maps(hm, mask)
-        return decide(self._q["grasp"], self._q["push"], mask, hm, self.prims, self.threshold)
+        spent = 0 < self.push_budget <= self.pushes_in_row
+        d = decide(self._q["grasp"], self._q["push"], mask, hm, self.prims, -math.inf if spent else self.threshold)
+        self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0
+        return d
 
 
 REGISTRY: dict[str, Callable[[PolicyOptions], Policy]] = {
