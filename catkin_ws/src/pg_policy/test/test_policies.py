@@ -180,6 +180,15 @@ def test_learned_push_budget_forces_a_grasp_after_that_many_pushes(model_dir):
     with pytest.raises(ValueError, match="push budget"):
         make_policy("learned", PolicyOptions(models=(model_dir,), push_budget=-1))
 
+
+def test_shipped_models_resolve_by_folder_name():
+    from pg_policy.policies import SHIPPED_MODELS
+
+    pol = make_policy("lite")
+    assert pol.name == "learned" and pol.model_paths[0] == SHIPPED_MODELS / "lite" / "grasp.pt"
+    with pytest.raises(ValueError, match="unknown policy"):
+        make_policy("no_such_model")
+
 def test_heuristic_uncovers_a_hidden_target():
     obs = _scene([(0.0, 0.0, CUBE, CUBE, "blue"), (0.1, 0.1, CUBE, CUBE, "red")])  # no green cell at all
     pol = make_policy("heuristic")

@@ -283,11 +283,13 @@ REGISTRY: dict[str, Callable[[PolicyOptions], Policy]] = {
     "learned": LearnedPolicy,
 }
 NEEDS_MODEL = ("grasp-only", "learned")
+SHIPPED_MODELS = Path(__file__).resolve().parents[2] / "models"  # catkin_ws/src/pg_policy/models
 
 
 def make_policy(name_or_path: str, opts: PolicyOptions | None = None) -> Policy:
     """A policy by registry name, or `learned` / `grasp-only` from a model path given as the name (a directory with
-    grasp.pt and push.pt -> learned, with grasp.pt only or a single file -> grasp-only).
+    grasp.pt and push.pt -> learned, with grasp.pt only or a single file -> grasp-only), or from the name of a
+    folder of SHIPPED_MODELS (e.g. "lite"; a path that exists wins).
 
     Raises UnknownPolicyError (a ValueError) listing the registry, FileNotFoundError for missing model files.
     """
@@ -298,6 +300,8 @@ def make_policy(name_or_path: str, opts: PolicyOptions | None = None) -> Policy:
                                     f"{', ' + PUSH_FILE if name_or_path == 'learned' else ''}) or model file(s)")
         return REGISTRY[name_or_path](opts)
     path = Path(name_or_path).expanduser()
+    if not path.exists() and (SHIPPED_MODELS / name_or_path).is_dir():
+        path = SHIPPED_MODELS / name_or_path  # a shipped model by folder name, e.g. "lite"
     if path.is_dir() or path.suffix == ".pt" or path.exists():
         kind = "learned" if (path.is_dir() and (path / PUSH_FILE).is_file()) else "grasp-only"
         if not path.exists():
