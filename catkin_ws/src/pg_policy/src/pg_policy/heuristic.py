@@ -363,15 +363,19 @@ class HeuristicPlanner:
         fewer than `min_target_cells` cells or no push start is free. Used to guide exploration in training."""
         if int(target.sum()) < self.p.min_target_cells:
             return None
-        return self.best_push(hm, target, _Cells(hm, self._centre(hm, target), self.p.window))
+        return self.best_push(hm, target, self._around(hm, target)[0])
 
     def grasp_of(self, hm: Heightmap, target: np.ndarray) -> Action | None:
         """The rule's free grasp of a visible target (rule 1), None when there is none or the target has fewer than
         `min_target_cells` cells. Used to guide exploration in training."""
         if int(target.sum()) < self.p.min_target_cells:
             return None
-        others = (hm.height > self.p.occupied) & ~_dilate(target, 1)
-        return self.best_grasp(hm, target, others, _Cells(hm, self._centre(hm, target), self.p.window), [])
+        cells, others = self._around(hm, target)
+        return self.best_grasp(hm, target, others, cells, [])
+
+    def _around(self, hm: Heightmap, target: np.ndarray) -> tuple[_Cells, np.ndarray]:
+        """The examined window around a visible target and the (H, W) bool cells of other objects."""
+        return _Cells(hm, self._centre(hm, target), self.p.window), (hm.height > self.p.occupied) & ~_dilate(target, 1)
 
     def guide(self, primitive: str, hm: Heightmap, target: np.ndarray) -> Action | None:
         """`push_of` or `grasp_of` by primitive name."""
@@ -384,8 +388,7 @@ class HeuristicPlanner:
         pushes_in_row: pushes since the last grasp (from `declutter_after` on, a blocking neighbour may be removed).
         """
         if int(target.sum()) >= self.p.min_target_cells:
-            cells = _Cells(hm, self._centre(hm, target), self.p.window)
-            others = (hm.height > self.p.occupied) & ~_dilate(target, 1)
+            cells, others = self._around(hm, target)
             act = self.remove_on_top(hm, target, tabu)
             if act is None:
                 act = self.best_grasp(hm, target, others, cells, tabu)

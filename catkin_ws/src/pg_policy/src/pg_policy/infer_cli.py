@@ -25,7 +25,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def draw(out: Path, obs, decision, q: dict[str, np.ndarray], title: str) -> Path:
-    """Colour heightmap with target outline and the decision arrow | max-over-rotations Q_g | Q_p (masked views)."""
+    """Colour heightmap with target outline and the decision arrow | max-over-rotations Q_g | Q_p (masked views).
+    decision None: no arrow; q may be empty (the heightmap panel alone)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -35,7 +36,7 @@ def draw(out: Path, obs, decision, q: dict[str, np.ndarray], title: str) -> Path
 
     hm = obs.heightmap
     mask = target_mask(hm.color, hm.valid, obs.target)
-    panels = [("colour heightmap + decision", None)] + [(f"{k} Q (max over rotations)", v) for k, v in q.items()]
+    panels = [("colour heightmap" + (" + decision" if decision is not None else ""), None)] + [(f"{k} Q (max over rotations)", v) for k, v in q.items()]
     fig, axes = plt.subplots(1, len(panels), figsize=(5 * len(panels), 5), dpi=100, squeeze=False)
     for ax, (name, maps) in zip(axes[0], panels, strict=True):
         if maps is None:
@@ -43,7 +44,11 @@ def draw(out: Path, obs, decision, q: dict[str, np.ndarray], title: str) -> Path
         else:
             im = ax.imshow(maps.max(axis=0), origin="lower", cmap="jet")
             fig.colorbar(im, ax=ax, fraction=0.046)
-        ax.contour(mask.astype(float), levels=[0.5], colors="white", linewidths=1.5)
+        if mask.any():
+            ax.contour(mask.astype(float), levels=[0.5], colors="white", linewidths=1.5)
+        if decision is None:
+            ax.set_title(name)
+            continue
         dx, dy = np.cos(decision.yaw) * 12, np.sin(decision.yaw) * 12  # cols = x, rows = y
         color = "red" if decision.primitive == "grasp" else "cyan"
         ax.annotate("", xy=(decision.col + dx, decision.row + dy), xytext=(decision.col - dx, decision.row - dy),
@@ -65,28 +70,6 @@ def draw(out: Path, obs, decision, q: dict[str, np.ndarray], title: str) -> Path
 def _title(scene: str, obs, d) -> str:
     return (f"{scene} target {obs.target}: {d.primitive} at ({d.x:.3f}, {d.y:.3f}, {d.z:.3f}) m, "
             f"yaw {np.degrees(d.yaw):.1f} deg, q {d.q:.3f} (masked max Q_g {d.grasp_q:.3f})")
-
-
-def draw_scene(out: Path, obs, title: str) -> Path:
-    """The colour heightmap with the target outlined."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from pg_policy.target_mask import target_mask
-
-    hm = obs.heightmap
-    fig, ax = plt.subplots(figsize=(5, 5), dpi=100)
-    ax.imshow(hm.color, origin="lower")
-    mask = target_mask(hm.color, hm.valid, obs.target)
-    if mask.any():
-        ax.contour(mask.astype(float), levels=[0.5], colors="white", linewidths=1.5)
-    ax.set_title(title)
-    fig.tight_layout()
-    fig.savefig(out)
-    plt.close(fig)
-    return out
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -123,7 +106,7 @@ def _rollout(args: argparse.Namespace, env, policy, obs) -> int:
         obs = type(nxt)(nxt.heightmap, args.target, nxt.truth_target, nxt.sim_time) if args.target else nxt
         if res.target_grasped:
             break
-    after = draw_scene(Path(f"{stem}_after.png"), obs, f"after {k} action(s): target "
-                       f"{'grasped' if res.target_grasped else 'not grasped'}")
+    after = draw(Path(f"{stem}_after.png"), obs, None, {}, f"after {k} action(s): target "
+                 f"{'grasped' if res.target_grasped else 'not grasped'}")
     print(f"wrote {stem}_01.png .. {stem}_{k:02d}.png and {after}")
     return 0 if res.target_grasped else 1
