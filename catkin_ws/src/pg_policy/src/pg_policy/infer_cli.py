@@ -36,7 +36,8 @@ def draw(out: Path, obs, decision, q: dict[str, np.ndarray], title: str) -> Path
 
     hm = obs.heightmap
     mask = target_mask(hm.color, hm.valid, obs.target)
-    panels = [("colour heightmap" + (" + decision" if decision is not None else ""), None)] + [(f"{k} Q (max over rotations)", v) for k, v in q.items()]
+    first = "colour heightmap" + (" + decision" if decision is not None else "")
+    panels = [(first, None)] + [(f"{k} Q (max over rotations)", v) for k, v in q.items()]
     fig, axes = plt.subplots(1, len(panels), figsize=(5 * len(panels), 5), dpi=100, squeeze=False)
     for ax, (name, maps) in zip(axes[0], panels, strict=True):
         if maps is None:
