@@ -134,3 +134,23 @@ def test_guided_exploration_takes_the_heuristics_free_grasps(run_dir, tmp_path):
     Trainer(cfg).run()
     rows = list(csv.DictReader((tmp_path / "grasp-goal" / "log.csv").open()))
     assert len(rows) == 2 and all(r["primitive"] == "grasp" and r["explored"] == "2" for r in rows)
+
+
+def test_alternate_push_budget_forces_grasps_and_is_exported(run_dir, tmp_path):
+    import torch
+
+    from pg_policy.model_io import load_qnet
+
+    out = tmp_path / "budget"
+    args = ["train", "--stage", "alternate", "--out", str(out), "--init", str(run_dir / "push" / "last.pt"),
+            "--iterations", "6", "--scene", "dense-4", "--replay-capacity", "32", "--max-actions", "6",
+            "--grasp-threshold", "1e9", "--push-budget", "1"]
+    assert main(args) == 0
+    rows = list(csv.DictReader((out / "alternate" / "log.csv").open()))
+    pairs = list(zip(rows, rows[1:]))
+    assert any(a["primitive"] == "push" and b["primitive"] == "grasp" for a, b in pairs)
+    assert not any(a["primitive"] == b["primitive"] == "push" and a["episode"] == b["episode"] for a, b in pairs)
+    assert main(["export", "--run", str(out), "--out", str(tmp_path / "model")]) == 0
+    _, meta = load_qnet(tmp_path / "model" / "grasp.pt")
+    assert meta["thresholds"] == {"grasp_q": 1e9, "push_budget": 1}
+    assert torch.load(out / "alternate" / "last.pt", weights_only=False)["config"]["push_budget"] == "1"

@@ -181,6 +181,19 @@ def test_learned_push_budget_forces_a_grasp_after_that_many_pushes(model_dir):
         make_policy("learned", PolicyOptions(models=(model_dir,), push_budget=-1))
 
 
+def test_learned_policy_does_not_repeat_a_failed_grasp(model_dir):
+    obs = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (-0.1, 0.1, CUBE, CUBE, "blue")])
+    pol = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=-1e9))  # always grasps
+    first, second = pol.act(obs), pol.act(obs)  # asked again on the same scene: the first grasp failed
+    assert first.primitive == second.primitive == "grasp"
+    assert (first.rotation % 8, first.row, first.col) != (second.rotation % 8, second.row, second.col)
+    pol.reset(0)  # a new trial forgets
+    assert pol.act(obs) == first and pol.failed.grasps == []
+    off = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=-1e9, failed_grasp_radius_m=0))
+    assert [(d.rotation, d.row, d.col) for d in (off.act(obs), off.act(obs))] == [(first.rotation, first.row,
+                                                                                   first.col)] * 2
+
+
 def test_shipped_models_resolve_by_folder_name():
     from pg_policy.policies import SHIPPED_MODELS
 

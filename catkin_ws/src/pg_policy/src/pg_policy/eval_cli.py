@@ -58,6 +58,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ev.add_argument("--push-budget", type=int, default=None,
                     help="learned: override the model metadata's push budget (grasp after this many pushes in a "
                          "row; 0 = none)")
+    ev.add_argument("--failed-grasp-radius", type=float, default=None, metavar="M",
+                    help="learned: a failed grasp's closing axis is not retried within M metres in the same trial "
+                         "(default: pg_policy.failed_grasps.DEFAULT_RADIUS_M = 0.01; 0 = off)")
     ev.add_argument("--device", default="cpu", help="torch device of learned policies (default cpu)")
     ev.add_argument("--workers", type=int, default=1,
                     help="parallel simulator processes (default 1); results do not depend on it")
@@ -124,7 +127,8 @@ def _run(args: argparse.Namespace) -> int:
         raise ValueError("--jitter-xy and --jitter-yaw must be >= 0")
     scenes = expand_scenes(args.scenes)
     opts = PolicyOptions(models=tuple(args.model), seed=args.seed, device=args.device,
-                         grasp_threshold=args.grasp_threshold, push_budget=args.push_budget)
+                         grasp_threshold=args.grasp_threshold, push_budget=args.push_budget,
+                         failed_grasp_radius_m=args.failed_grasp_radius)
     policy = make_policy(args.policy, opts)  # validates the name and the model files before any simulation
     paths = getattr(policy, "model_paths", None)
     if paths:  # workers and the record get the resolved files
@@ -139,7 +143,7 @@ def _run(args: argparse.Namespace) -> int:
         "seed": args.seed, "trial_seeds": f"seed + i for trial i = 0..{args.trials - 1}",
         "max_actions": args.max_actions, "max_failed_grasps": args.max_failed_grasps,
         "jitter_xy_m": args.jitter_xy, "jitter_yaw_deg": args.jitter_yaw, "grasp_threshold": args.grasp_threshold,
-        "push_budget": args.push_budget,
+        "push_budget": args.push_budget, "failed_grasp_radius_m": args.failed_grasp_radius,
         "git_commit": git_commit(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "workers": args.workers,
         "host_cpus": os.cpu_count(),
     }

@@ -18,9 +18,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, required=True, help="output directory for grasp.pt and push.pt")
     p.add_argument("--threshold", type=float, default=None,
                    help="grasp threshold on the masked max Q_g stored in the metadata (default: the run's)")
-    p.add_argument("--push-budget", type=int, default=0,
+    p.add_argument("--push-budget", type=int, default=None,
                    help="pushes in a row after which the learned policy grasps even below the threshold, stored "
-                        "in the metadata (default 0: none, the paper's rule)")
+                        "in the metadata (default: the run's --push-budget, 0 = none, the paper's rule)")
     p.set_defaults(run=_run)
 
 
@@ -35,7 +35,7 @@ def latest_checkpoint(run: Path, stage: str | None) -> Path:
 
 
 def export_run(run: Path, out: Path, stage: str | None = None, threshold: float | None = None,
-               push_budget: int = 0) -> list[Path]:
+               push_budget: int | None = None) -> list[Path]:
     import torch
 
     from pg_policy.model_io import export_qnet
@@ -46,6 +46,8 @@ def export_run(run: Path, out: Path, stage: str | None = None, threshold: float 
     cfg = ck["config"]
     qcfg = QNetConfig(backbone=cfg["backbone"], goal=cfg["goal"], rotations=int(cfg["rotations"]))
     thr = float(threshold if threshold is not None else cfg["grasp_threshold"])
+    if push_budget is None:
+        push_budget = int(cfg.get("push_budget", 0))
     if push_budget < 0:
         raise ValueError(f"--push-budget must be >= 0, got {push_budget}")
     written = []

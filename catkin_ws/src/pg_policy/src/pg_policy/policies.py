@@ -56,7 +56,9 @@ class PolicyOptions:
     """models: model files/directories (learned policies); seed: default seed before the first reset; geometry:
     the workspace config (default: pg_policy.geometry.load()); device: torch device; grasp_threshold: overrides the
     model metadata's threshold (learned); push_budget: overrides the metadata's push budget (learned: after this
-    many pushes in a row it grasps even below the threshold; 0 = no budget)."""
+    many pushes in a row it grasps even below the threshold; 0 = no budget); failed_grasp_radius_m (learned): a
+    failed grasp's closing axis is not retried within this radius in the same trial (pg_policy.failed_grasps;
+    None = its DEFAULT_RADIUS_M, 0 = off)."""
 
     models: tuple[Path, ...] = ()
     seed: int = 0
@@ -64,6 +66,7 @@ class PolicyOptions:
     device: str = "cpu"
     grasp_threshold: float | None = None
     push_budget: int | None = None
+    failed_grasp_radius_m: float | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -241,8 +244,9 @@ def threshold_from_metadata(metadata: Any) -> float:
 class LearnedPolicy(_Base):
     """Grasp and push nets + pg_policy.decision.decide (grasp if masked max Q_g > threshold, else push); with a push
     budget B > 0 (model metadata thresholds.push_budget or PolicyOptions.push_budget) it grasps after B pushes in a
-    row whatever Q_g says, as the paper's push stage does in training (a deviation at test time: see
-    docs/ARCHITECTURE.md)."""
+    row whatever Q_g says, as the paper's push stage does in training; a grasp that failed is not retried at the same
+    place and closing axis within the trial (pg_policy.failed_grasps). Both are deviations at test time: see
+    docs/ARCHITECTURE.md."""
 
     name = "learned"
 
@@ -259,20 +263,31 @@ class LearnedPolicy(_Base):
             raise ValueError(f"push budget must be >= 0 (0 = none), got {budget}")
         self.push_budget = int(budget)
         self.pushes_in_row = 0
+        from pg_policy.failed_grasps import DEFAULT_RADIUS_M, FailedGrasps
+
+        radius = DEFAULT_RADIUS_M if opts.failed_grasp_radius_m is None else opts.failed_grasp_radius_m
+        self.failed = FailedGrasps(self.rotations, radius)
+        self.last: Decision | None = None
 
     def reset(self, seed: int | None = None) -> None:
         super().reset(seed)
         self.pushes_in_row = 0
+        self.failed.clear()
+        self.last = None
 
     def act(self, obs: Any) -> Decision:
         from pg_policy.decision import decide
 
         hm = obs.heightmap
         mask = _goal_or_all(obs)
+        if self.last is not None and self.last.primitive == "grasp":  # asked again: that grasp missed the target
+            self.failed.add(self.last.rotation, self.last.x, self.last.y)
         self._q = self.nets.q_maps(hm, mask)
         spent = 0 < self.push_budget <= self.pushes_in_row
-        d = decide(self._q["grasp"], self._q["push"], mask, hm, self.prims, -math.inf if spent else self.threshold)
+        q_grasp = self.failed.suppress(self._q["grasp"], hm)
+        d = decide(q_grasp, self._q["push"], mask, hm, self.prims, -math.inf if spent else self.threshold)
         self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0
+        self.last = d
         return d
 
 

@@ -35,13 +35,15 @@ STAGES: dict[str, Stage] = {
 
 
 def choose_primitive(stage: Stage, grasp_max: float, pushes_in_episode: int, threshold: float,
-                     max_pushes: int) -> str:
-    """grasp or push for this step, before exploration. grasp_max = masked max Q_g of the goal."""
+                     max_pushes: int, pushes_in_row: int = 0, push_budget: int = 0) -> str:
+    """grasp or push for this step, before exploration. grasp_max = masked max Q_g of the goal. Push stage: grasp
+    after `max_pushes` pushes in the episode; alternate stage with `push_budget` > 0: grasp after that many pushes in
+    a row (the learned policy's test-time push budget, pg_policy.policies.LearnedPolicy)."""
     if not stage.uses_push:
         return "grasp"
     if stage.name == "push":
         return "grasp" if grasp_max > threshold or pushes_in_episode >= max_pushes else "push"
-    return "grasp" if grasp_max > threshold else "push"
+    return "grasp" if grasp_max > threshold or 0 < push_budget <= pushes_in_row else "push"
 
 
 def epsilon(iteration: int, start: float, end: float, decay: int) -> float:

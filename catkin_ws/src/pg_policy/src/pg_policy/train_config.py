@@ -39,6 +39,9 @@ class TrainConfig:
     max_pushes: int = _f(5, "push stage: pushes before a grasp is forced")
     early_grasp_threshold: float = _f(0.5, "push stage: grasp before max_pushes once the masked max Q_g exceeds "
                                            "this (raise it when the grasp net is over-confident: pushes are rare)")
+    push_budget: int = _f(0, "alternate stage: grasp after this many pushes in a row whatever Q_g says, as the "
+                             "learned policy does at test time with the same budget (0 = the paper's threshold "
+                             "rule alone)")
     guided_exploration: float = _f(0.0, "goal-conditioned stages: fraction of the exploratory (epsilon) actions "
                                         "taken from the heuristic baseline's push rule / free-grasp rule instead of "
                                         "uniformly at random (uniform when the rule has none); rewards stay the "

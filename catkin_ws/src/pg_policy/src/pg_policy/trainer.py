@@ -175,7 +175,7 @@ class Trainer:
             seed = (self.cfg.seed * 100_003 + self.episode) % 1_000_000
             self.env.reset(f"{kind}-{n}", seed=seed)
             self._pick_target()
-            self.ep_ = {"actions": 0, "failed": 0, "pushes": 0}
+            self.ep_ = {"actions": 0, "failed": 0, "pushes": 0, "in_row": 0}
             obs = self.env.observe()
             if not self._episode_over(obs):
                 break
@@ -212,7 +212,9 @@ class Trainer:
             q = qtensor.q_maps(self.nets, hm, goal, ("grasp", "push") if self.stage.uses_push else ("grasp",))
             gmax = qtensor.masked_max(q["grasp"], goal)
         threshold = cfg.early_grasp_threshold if self.stage.name == "push" else cfg.grasp_threshold
-        primitive = choose_primitive(self.stage, gmax, self.ep_["pushes"], threshold, cfg.max_pushes)
+        primitive = choose_primitive(self.stage, gmax, self.ep_["pushes"], threshold, cfg.max_pushes,
+                                     self.ep_["in_row"], cfg.push_budget)
+        self.ep_["in_row"] = self.ep_["in_row"] + 1 if primitive == "push" else 0
         region = goal if primitive == "grasp" else qtensor.push_region(goal, self.geo)
         guided = None
         if explored and self.guide is not None and self.rng.random() < cfg.guided_exploration:
