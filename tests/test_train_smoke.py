@@ -147,7 +147,7 @@ def test_alternate_push_budget_forces_grasps_and_is_exported(run_dir, tmp_path):
             "--grasp-threshold", "1e9", "--push-budget", "1"]
     assert main(args) == 0
     rows = list(csv.DictReader((out / "alternate" / "log.csv").open()))
-    pairs = list(zip(rows, rows[1:]))
+    pairs = list(zip(rows, rows[1:], strict=False))
     assert any(a["primitive"] == "push" and b["primitive"] == "grasp" for a, b in pairs)
     assert not any(a["primitive"] == b["primitive"] == "push" and a["episode"] == b["episode"] for a, b in pairs)
     assert main(["export", "--run", str(out), "--out", str(tmp_path / "model")]) == 0
