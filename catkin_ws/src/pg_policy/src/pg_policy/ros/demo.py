@@ -57,8 +57,7 @@ def run(args: argparse.Namespace) -> int:
     log = open(args.out / "roslaunch.log", "w")
     cmd = ["roslaunch", "-p", str(port), str(REPO / "launch" / "sim.launch"), f"scene:={args.scene}",
            f"policy:={args.policy}", f"seed:={args.seed}"]
-    print(f"[demo] policy: {args.policy}" + (" (the heuristic baseline: no trained push/grasp model ships yet)"
-                                             if args.policy == "heuristic" else ""))
+    print(f"[demo] policy: {args.policy}")
     print(f"[demo] {' '.join(cmd)}  (log: {args.out / 'roslaunch.log'})")
     proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
     try:
@@ -96,7 +95,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="scripts/demo.sh", description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="packed/case01", help="scene name, YAML file, or random (default packed/case01)")
     ap.add_argument("--seed", type=int, default=1_000_000, help="seed of random scenes")
-    ap.add_argument("--policy", default="heuristic", help="policy name or model directory (default heuristic)")
+    ap.add_argument("--policy", default="lite",
+                    help="policy name (heuristic, random), shipped model folder name or model directory (default lite)")
     ap.add_argument("--target", default="green", help="target colour (default green)")
     ap.add_argument("--timeout", type=float, default=600.0, help="wall seconds for the grasp_target call")
     ap.add_argument("--startup-timeout", type=float, default=120.0, help="wall seconds for the stack to come up")

@@ -3,10 +3,11 @@ the action /pg/grasp_target_action (pg_msgs/GraspTargetAction: feedback per acti
 while a call runs is rejected "busy"); /pg/decisions, /pg/q_map and /pg/markers out. The loop itself is
 pg_policy.target_loop.TargetLoop.
 
-Private parameters (defaults): ~policy ("heuristic"; a registry name or a model directory / TorchScript file),
-~grasp_threshold (from the model), ~heightmap_timeout (5.0 wall s), ~primitive_timeout (60.0 s per primitive),
-~max_actions (30), ~max_failed_grasps (5), ~call_timeout (600 wall s), ~execute_service ("/pg/execute_primitive"),
-~dry_run (false: grasp_target refused; every new heightmap is decided on and published on /pg/dry_run/decisions).
+Private parameters (defaults): ~policy ("lite", the shipped model; a registry name, a shipped model folder name, a
+model directory or a TorchScript file), ~grasp_threshold (from the model), ~heightmap_timeout (5.0 wall s),
+~primitive_timeout (60.0 s per primitive), ~max_actions (30), ~max_failed_grasps (5), ~call_timeout (600 wall s),
+~execute_service ("/pg/execute_primitive"), ~dry_run (false: grasp_target refused; every new heightmap is decided
+on and published on /pg/dry_run/decisions).
 A missing or corrupt model file ends the node at start-up with the reason (exit status 1).
 """
 
@@ -34,7 +35,7 @@ class PolicyNode:
     def __init__(self) -> None:
         from pg_policy.policies import PolicyOptions, make_policy
 
-        self.policy_name = str(rospy.get_param("~policy", "heuristic"))
+        self.policy_name = str(rospy.get_param("~policy", "lite"))
         threshold = rospy.get_param("~grasp_threshold", None)
         policy = make_policy(self.policy_name, PolicyOptions(grasp_threshold=threshold))
         self.limits = LoopLimits(int(rospy.get_param("~max_actions", 30)),
