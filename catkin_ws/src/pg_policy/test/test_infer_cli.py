@@ -18,3 +18,9 @@ def test_infer_rollout_writes_a_sequence_until_the_target_is_grasped(tmp_path, c
     assert steps and steps[0] == "case03_01.png" and (out.parent / "case03_after.png").exists()
     assert text.count("-> ") == len(steps) and "(target grasped)" in text.splitlines()[-2]
     assert main(["infer", "--model", "heuristic", "--scene", "packed/case03", "--out", str(out), "--steps", "-1"]) == 2
+
+
+def test_infer_defaults_to_the_shipped_model(tmp_path, capsys):
+    out = tmp_path / "lite.png"
+    assert main(["infer", "--scene", "packed/case01", "--out", str(out)]) == 0
+    assert out.stat().st_size > 10_000 and "masked max Q_g" in capsys.readouterr().out  # Q maps: a learned policy

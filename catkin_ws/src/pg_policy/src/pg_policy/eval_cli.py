@@ -29,9 +29,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "eval", help="evaluate a policy on scenes (completion, grasp success, motion number; DESIGN.md section 8)",
         description="Run trials of a policy and write results.json, results.md (C, GS, MN per scene) and results.png.",
     )
-    ev.add_argument("--policy", required=True,
-                    help="registered policy (random, heuristic, grasp-only, learned) or a model directory/file "
-                         "(a directory with grasp.pt and push.pt runs `learned`, grasp.pt alone `grasp-only`)")
+    ev.add_argument("--policy", default="lite",
+                    help="registered policy (random, heuristic, grasp-only, learned), a shipped model folder name, "
+                         "or a model directory/file (a directory with grasp.pt and push.pt runs `learned`, grasp.pt "
+                         "alone `grasp-only`) (default: lite, the shipped model)")
     ev.add_argument("--model", nargs="+", type=Path, default=[],
                     help="models of grasp-only/learned: a directory with grasp.pt [push.pt], or grasp.pt [push.pt]")
     ev.add_argument("--scenes", nargs="+", required=True,

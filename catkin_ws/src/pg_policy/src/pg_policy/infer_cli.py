@@ -12,8 +12,9 @@ import numpy as np
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("infer", help="render a policy's Q maps and decision over a scene to PNG (no action)")
-    p.add_argument("--model", required=True,
-                   help="model directory (grasp.pt + push.pt), a grasp .pt file, or a baseline name (heuristic, ...)")
+    p.add_argument("--model", default="lite",
+                   help="shipped model folder name, model directory (grasp.pt + push.pt), a grasp .pt file, or a "
+                        "baseline name (heuristic, ...) (default: lite, the shipped model)")
     p.add_argument("--scene", required=True, help="scene name (see `pushgrasp scene list`), YAML file, or random-N")
     p.add_argument("--seed", type=int, default=1_000_000, help="seed for random-N scenes (default 1000000)")
     p.add_argument("--target", default=None, help="target colour (default: the scene's)")
