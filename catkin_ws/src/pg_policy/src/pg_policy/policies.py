@@ -28,6 +28,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from pg_policy.decision import Decision, action_pose
+from pg_policy.failed_grasps import DEFAULT_RADIUS_M, FailedGrasps
 from pg_policy.geometry import Geometry, load
 from pg_policy.heightmap import Heightmap
 
@@ -263,8 +264,6 @@ class LearnedPolicy(_Base):
             raise ValueError(f"push budget must be >= 0 (0 = none), got {budget}")
         self.push_budget = int(budget)
         self.pushes_in_row = 0
-        from pg_policy.failed_grasps import DEFAULT_RADIUS_M, FailedGrasps
-
         radius = DEFAULT_RADIUS_M if opts.failed_grasp_radius_m is None else opts.failed_grasp_radius_m
         self.failed = FailedGrasps(self.rotations, radius)
         self.last: Decision | None = None
