@@ -132,7 +132,7 @@ class HeuristicPolicy(_Base):
 
         super().__init__(opts)
         self.planner = HeuristicPlanner(self.geometry, opts.extra.get("heuristic_params") or HeuristicParams())
-        self.tabu: list[tuple[int, float, float]] = []
+        self.failed = FailedGrasps(self.rotations)  # storage only: the planner applies its own repeat_radius
         self.last_seen: np.ndarray | None = None
         self.last_action: Any = None
         self.last_note = ""  # why the last decision was taken (logged by pg_policy.evaluate)
@@ -140,7 +140,8 @@ class HeuristicPolicy(_Base):
 
     def reset(self, seed: int | None = None) -> None:
         super().reset(seed)
-        self.tabu, self.last_seen, self.last_action, self.last_note = [], None, None, ""
+        self.failed.clear()
+        self.last_seen, self.last_action, self.last_note = None, None, ""
         self.pushes_in_row = 0
 
     def act(self, obs: Any) -> Decision:
@@ -150,12 +151,12 @@ class HeuristicPolicy(_Base):
             rows, cols = np.nonzero(target)
             self.last_seen = np.array([hm.bounds[0, 0] + (cols.mean() + 0.5) * hm.resolution,
                                        hm.bounds[1, 0] + (rows.mean() + 0.5) * hm.resolution])
-        act = self.planner.plan(hm, target, self.tabu, self.last_seen, self.rng, self.pushes_in_row)
+        act = self.planner.plan(hm, target, self.failed.grasps, self.last_seen, self.rng, self.pushes_in_row)
         self.last_action, self.last_note = act, act.why
         self.pushes_in_row = self.pushes_in_row + 1 if act.primitive == "push" else 0
         d = self.decision(hm, act.primitive, act.rotation, act.row, act.col)
         if act.primitive == "grasp":
-            self.tabu.append((act.rotation, d.x, d.y))
+            self.failed.add(act.rotation, d.x, d.y)  # a later act() in this trial means it failed
         return d
 
 
