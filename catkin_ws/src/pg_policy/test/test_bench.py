@@ -90,5 +90,40 @@ def test_cli_bench_on_a_shipped_scene(capsys):
                "--modes", "batched,early-grasp", "--quiet"])
     out = capsys.readouterr().out
     assert rc == 0
-    assert "lite         batched" in out and "agreement" in out and "1 shipped scenes" in out
+    assert "lite         batched" in out and "agreement" in out and "heightmaps: 1 scenes" in out
     assert main(["bench", "--variants", "resnet", "--runs", "1", "--scenes", "packed/case01"]) == 2
+
+
+def test_cases_file_round_trip_and_errors(tmp_path):
+    from pg_policy.bench import load_cases, save_cases
+
+    cases = [_case(0), _case(1)]
+    path = tmp_path / "cases.npz"
+    save_cases(cases, path)
+    back = load_cases(path)
+    assert [c.name for c in back] == [c.name for c in cases]
+    for a, b in zip(cases, back, strict=True):
+        for field_ in ("color", "height", "valid", "bounds"):
+            np.testing.assert_array_equal(getattr(a.heightmap, field_), getattr(b.heightmap, field_))
+        assert a.heightmap.resolution == b.heightmap.resolution
+        np.testing.assert_array_equal(a.target, b.target)
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"not an archive")
+    with pytest.raises(ValueError, match="not a benchmark cases file"):
+        load_cases(bad)
+    with pytest.raises(ValueError, match="not a benchmark cases file"):
+        load_cases(tmp_path / "missing.npz")
+
+
+def test_bench_cli_on_cases_file(tmp_path, capsys):
+    from pg_policy.bench import save_cases
+
+    path = tmp_path / "cases.npz"
+    save_cases([_case(0)], path)
+    assert main(["bench", "--cases", str(path), "--variants", "lite", "--runs", "1", "--modes",
+                 "vpg-loop,batched", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "device cpu" in out and "heightmaps: 1 scenes" in out and "100.0% (1/1)" in out
+    if not torch.cuda.is_available():
+        assert main(["bench", "--cases", str(path), "--device", "cuda", "--quiet"]) != 0
+        assert "no CUDA device" in capsys.readouterr().err

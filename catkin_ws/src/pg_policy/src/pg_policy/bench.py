@@ -68,6 +68,30 @@ def scene_cases(scenes: Sequence[str] | None = None) -> list[Case]:
     return cases
 
 
+def save_cases(cases: Sequence[Case], path: str | os.PathLike) -> None:
+    """Write cases to one .npz (heightmap arrays, geometry and masks per case) for `load_cases`, so the benchmark
+    can run where the simulator is not installed (e.g. a GPU machine)."""
+    arrays: dict[str, np.ndarray] = {"names": np.array([c.name for c in cases])}
+    for i, c in enumerate(cases):
+        hm = c.heightmap
+        arrays.update({f"{i}_color": hm.color, f"{i}_height": hm.height, f"{i}_valid": hm.valid,
+                       f"{i}_resolution": np.float64(hm.resolution), f"{i}_bounds": np.asarray(hm.bounds),
+                       f"{i}_target": c.target})
+    np.savez_compressed(path, **arrays)
+
+
+def load_cases(path: str | os.PathLike) -> list[Case]:
+    """Cases written by `save_cases`. Raises ValueError for a file that is not such an archive."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return [Case(str(name), Heightmap(z[f"{i}_color"], z[f"{i}_height"], z[f"{i}_valid"],
+                                              float(z[f"{i}_resolution"]), z[f"{i}_bounds"]),
+                         z[f"{i}_target"].astype(bool))
+                    for i, name in enumerate(z["names"])]
+    except (OSError, KeyError, ValueError) as e:
+        raise ValueError(f"{path}: not a benchmark cases file written by `pushgrasp bench --save-cases` ({e})") from e
+
+
 def crop_heightmap(hm: Heightmap, window: Window) -> Heightmap:
     """The heightmap cells of `window` (row0, row1, col0, col1) with bounds shifted to match (same resolution)."""
     r0, r1, c0, c1 = window
@@ -155,6 +179,7 @@ class BenchResult:
     threads: int
     cases: list[str]
     threshold: float
+    device: str = "cpu"
 
     def report(self) -> str:
         """A readable table (variant, mode, median ms, speed-up vs the VPG loop, decision agreement %)."""
@@ -162,8 +187,8 @@ class BenchResult:
                 f"{'agreement':>15s}  note")
         load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
         lines = [f"decision latency: {self.runs} runs, {self.threads} torch threads, torch {torch.__version__}, "
-                 f"{os.cpu_count()} CPUs (load average {load:.1f}), grasp threshold {self.threshold}, "
-                 f"heightmaps: {len(self.cases)} shipped scenes", head, "-" * len(head)]
+                 f"{os.cpu_count()} CPUs (load average {load:.1f}), device {self.device}, grasp threshold "
+                 f"{self.threshold}, heightmaps: {len(self.cases)} scenes", head, "-" * len(head)]
         for r in self.rows:
             agree = f"{100.0 * r.agree / r.cases:5.1f}% ({r.agree}/{r.cases})" if r.cases else "-"
             lines.append(f"{r.variant:12s} {r.mode:13s} {r.median_ms:10.1f} {r.cpu_ms:8.0f} {r.speedup:10.2f}x "
@@ -177,18 +202,19 @@ def _key(d: Decision) -> tuple[str, int, int, int]:
 
 def bench_variant(variant: str, cases: Sequence[Case], runs: int, modes: Sequence[str] = tuple(MODES),
                   threshold: float = 1.8, margin_m: float | None = None, seed: int = 0, goal: str = "mask",
-                  optimize: bool = True, rotations: int = 16,
+                  optimize: bool = True, rotations: int = 16, device: str = "cpu",
                   log: Callable[[str], None] = lambda s: None) -> list[Row]:
     """Time and compare every mode for one backbone with random weights (seeded); rows in `modes` order.
 
     Each mode: two warm-up calls, then `runs` timed calls cycling through `cases`, modes interleaved (extra untimed
     calls cover cases not reached when runs < len(cases)). margin_m: window context (m); None = the backbone's exact
     margin, else APPROX_MARGIN_M. optimize: frozen TorchScript nets (`optimize_for_cpu`, as deployed) for every mode.
-    Raises ValueError for an unknown mode or no cases."""
+    device: torch device of the nets; every decision ends with its Q maps copied to the host, so GPU timings include
+    the synchronisation. Raises ValueError for an unknown mode or no cases."""
     unknown = [m for m in modes if m not in MODES]
     if unknown or not cases:
         raise ValueError(f"unknown modes {unknown} (known: {list(MODES)})" if unknown else "no heightmaps to run on")
-    nets = PolicyNets.random(variant, goal, rotations=rotations, seed=seed, optimize=optimize)
+    nets = PolicyNets.random(variant, goal, rotations=rotations, seed=seed, optimize=optimize, device=device)
     res = cases[0].heightmap.resolution
     exact = nets.exact_margin()
     margin = int(round(margin_m / res)) if margin_m is not None else exact if exact >= 0 else int(
@@ -233,8 +259,11 @@ def bench_variant(variant: str, cases: Sequence[Case], runs: int, modes: Sequenc
 
 def run(variants: Sequence[str] = VARIANTS, runs: int = 20, threads: int = 2, scenes: Sequence[str] | None = None,
         modes: Sequence[str] = tuple(MODES), threshold: float = 1.8, margin_m: float | None = None, seed: int = 0,
-        goal: str = "mask", optimize: bool = True, verbose: bool = True) -> BenchResult:
-    """The whole benchmark; sets torch.set_num_threads(threads). Raises ValueError for unknown variants/modes."""
+        goal: str = "mask", optimize: bool = True, verbose: bool = True, device: str = "cpu",
+        cases_file: str | None = None) -> BenchResult:
+    """The whole benchmark; sets torch.set_num_threads(threads). cases_file: heightmaps from `save_cases` instead of
+    the simulator's shipped scenes. device "cuda[:N]": fp32 convolutions and matmuls (TF32 off), so that every mode
+    computes the same numbers. Raises ValueError for unknown variants/modes or an unavailable device."""
     from pg_policy.nets.registry import BACKBONES
 
     bad = [v for v in variants if v not in BACKBONES]
@@ -242,8 +271,14 @@ def run(variants: Sequence[str] = VARIANTS, runs: int = 20, threads: int = 2, sc
         raise ValueError(f"unknown variants {bad}; known: {sorted(BACKBONES)}")
     if runs < 1 or threads < 1:
         raise ValueError("runs and threads must be >= 1")
+    dev = torch.device(device)
+    if dev.type == "cuda":
+        if not torch.cuda.is_available():
+            raise ValueError(f"device {device}: torch sees no CUDA device")
+        torch.backends.cudnn.allow_tf32 = False
+        torch.backends.cuda.matmul.allow_tf32 = False
     torch.set_num_threads(threads)
-    cases = scene_cases(scenes)
+    cases = load_cases(cases_file) if cases_file else scene_cases(scenes)
 
     def log(s: str) -> None:
         if verbose:
@@ -251,5 +286,6 @@ def run(variants: Sequence[str] = VARIANTS, runs: int = 20, threads: int = 2, sc
 
     rows: list[Row] = []
     for variant in variants:
-        rows += bench_variant(variant, cases, runs, modes, threshold, margin_m, seed, goal, optimize, log=log)
-    return BenchResult(rows, runs, threads, [c.name for c in cases], threshold)
+        rows += bench_variant(variant, cases, runs, modes, threshold, margin_m, seed, goal, optimize, device=device,
+                              log=log)
+    return BenchResult(rows, runs, threads, [c.name for c in cases], threshold, str(dev))

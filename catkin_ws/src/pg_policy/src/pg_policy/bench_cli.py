@@ -30,15 +30,27 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="weight initialisation seed (default 0)")
     p.add_argument("--no-optimize", action="store_true",
                    help="time the eager nets instead of frozen TorchScript copies (as deployed)")
+    p.add_argument("--device", default="cpu", help="torch device of the nets, e.g. cuda (default cpu)")
+    p.add_argument("--cases", default=None, metavar="NPZ",
+                   help="heightmaps + target masks from --save-cases instead of rendering the shipped scenes "
+                        "(for a machine without the simulator)")
+    p.add_argument("--save-cases", default=None, metavar="NPZ",
+                   help="render the shipped scenes (--scenes), write their heightmaps and masks to NPZ and exit")
     p.add_argument("--quiet", action="store_true", help="no per-mode progress on stderr")
     p.set_defaults(run=_run)
 
 
 def _run(args: argparse.Namespace) -> int:
-    from pg_policy.bench import MODES, run
+    from pg_policy.bench import MODES, run, save_cases, scene_cases
 
+    if args.save_cases:
+        cases = scene_cases(args.scenes)
+        save_cases(cases, args.save_cases)
+        print(f"wrote {len(cases)} heightmaps to {args.save_cases}")
+        return 0
     result = run(args.variants, runs=args.runs, threads=args.threads, scenes=args.scenes,
                  modes=args.modes or tuple(MODES), threshold=args.threshold, margin_m=args.window_margin,
-                 seed=args.seed, goal=args.goal, optimize=not args.no_optimize, verbose=not args.quiet)
+                 seed=args.seed, goal=args.goal, optimize=not args.no_optimize, verbose=not args.quiet,
+                 device=args.device, cases_file=args.cases)
     print(result.report())
     return 0

@@ -108,12 +108,12 @@ class PolicyNets:
 
     @classmethod
     def random(cls, backbone: str = "lite", goal: str = "mask", rotations: int = 16, seed: int = 0,
-               optimize: bool = False) -> PolicyNets:
+               optimize: bool = False, device: str | torch.device = "cpu") -> PolicyNets:
         """Untrained nets with a reproducible initialisation (benchmarks, tests)."""
         from pg_policy.nets.qnet import QNetConfig, build_qnet
 
         cfg = QNetConfig(backbone=backbone, goal=goal, rotations=rotations)
-        return cls(build_qnet(cfg, seed=seed), build_qnet(cfg, seed=seed + 1), optimize=optimize)
+        return cls(build_qnet(cfg, seed=seed), build_qnet(cfg, seed=seed + 1), device=device, optimize=optimize)
 
     def exact_margin(self) -> int:
         """Smallest window margin (px) for which window maps equal the full maps; -1 if none exists (DenseNet)."""
