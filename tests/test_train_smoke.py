@@ -89,6 +89,14 @@ def test_a_stage_can_start_from_exported_models(run_dir, tmp_path):
         trainer.env.close()
     with pytest.raises(ModelLoadError, match="this run trains"):
         Trainer(TrainConfig(stage="grasp-goal", out=tmp_path / "other", iterations=1, init=model, goal="mask"))
+    dense = Trainer(TrainConfig(stage="grasp-goal", out=tmp_path / "dense", iterations=1, init=model,
+                                backbone="lite-os8"))  # lite's weights at output stride 8
+    try:
+        assert int(dense.nets["grasp"].color_trunk.stride) == 8
+        for k, v in ck["nets"]["grasp"].items():
+            assert torch.equal(dense.nets["grasp"].state_dict()[k], v), k
+    finally:
+        dense.env.close()
 
 
 def test_goal_conditioned_episode_ends_when_the_target_is_not_visible(run_dir, tmp_path):

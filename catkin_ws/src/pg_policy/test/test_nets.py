@@ -123,7 +123,37 @@ def test_lite_trunk_interface():
     with torch.no_grad():
         y = trunk(torch.zeros(2, 3, 64, 96))
     assert y.shape == (2, trunk.out_channels, 64 // trunk.stride, 96 // trunk.stride)
-    assert set(BACKBONES) == {"densenet121", "lite"}
+    assert set(BACKBONES) == {"densenet121", "lite", "lite-os8"}
+    with pytest.raises(ValueError, match="output stride"):
+        LiteTrunk(output_stride=4)
+
+
+def test_lite_os8_is_lite_sampled_twice_as_densely():
+    torch.manual_seed(0)
+    lite, dense = LiteTrunk().eval(), LiteTrunk(output_stride=8).eval()
+    for m in lite.modules():  # non-trivial BN statistics
+        if isinstance(m, torch.nn.BatchNorm2d):
+            m.running_mean.uniform_(-0.1, 0.1)
+            m.running_var.uniform_(0.5, 1.5)
+    dense.load_state_dict(lite.state_dict())  # same parameters
+    x = torch.rand(1, 3, 96, 128)
+    shifted = F.pad(x, (4, 0, 4, 0))[:, :, :96, :128]
+    with torch.no_grad():
+        y = dense(x)
+        assert y.shape == (1, 128, 12, 16) and dense.stride == 8
+        torch.testing.assert_close(y[:, :, ::2, ::2], lite(shifted), atol=1e-5, rtol=0)
+        torch.testing.assert_close(torch.jit.script(dense)(x), y, atol=1e-5, rtol=0)
+
+
+def test_lite_os8_window_equals_full_map():
+    net = build_qnet(QNetConfig("lite-os8", "mask"), seed=3).eval()
+    color, depth, mask = _inputs(96, 96, seed=4)
+    with torch.no_grad():
+        full = net(color, depth, mask)
+        for win in ([30, 50, 40, 70], [0, 20, 70, 96], [76, 96, 0, 9]):
+            cr, dr, origins = net.rotate_inputs_window(color, depth, mask, None, win, net.exact_margin)
+            q = net.q_from_rotated_window(cr, dr, origins, None, 96, 96, win)
+            torch.testing.assert_close(q, full[:, :, win[0]:win[1], win[2]:win[3]], atol=2e-5, rtol=0)
 
 
 def test_config_validation():
@@ -251,12 +281,12 @@ class _FixedRotations(torch.nn.Module):
         return self.net(color, depth, mask, self.rotations)
 
 
-@pytest.mark.parametrize("backbone,goal", [("lite", "none"), ("lite", "mask"), ("densenet121", "none"),
-                                          ("densenet121", "mask")])
+@pytest.mark.parametrize("backbone,goal", [("lite", "none"), ("lite", "mask"), ("lite-os8", "none"),
+                                          ("densenet121", "none"), ("densenet121", "mask")])
 def test_script_matches_eager(backbone, goal):
     net = build_qnet(QNetConfig(backbone, goal), seed=0)
     color, depth, mask = _inputs(32, 32)
-    rots = [0, 3] if backbone == "lite" else [5]
+    rots = [0, 3] if backbone.startswith("lite") else [5]
     with torch.no_grad(), torch.jit.optimized_execution(False):  # skip the profiling executor's slow passes
         scripted = torch.jit.script(net)
         torch.testing.assert_close(scripted(color, depth, mask, rots), net(color, depth, mask, rots), atol=1e-5,

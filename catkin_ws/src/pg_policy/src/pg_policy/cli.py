@@ -19,6 +19,7 @@ COMMANDS: dict[str, str] = {
     "bench": "pg_policy.bench_cli:add_parser",
     "replay": "pg_policy.replay_cli:add_parser",
     "compare": "pg_policy.compare_cli:add_parser",
+    "offline": "pg_policy.offline_cli:add_parser",
 }
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-STAGE_ORDER = ("alternate", "push", "grasp-goal", "grasp-agnostic")
+STAGE_ORDER = ("offline", "alternate", "push", "grasp-goal", "grasp-agnostic")  # offline: `pushgrasp offline`
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

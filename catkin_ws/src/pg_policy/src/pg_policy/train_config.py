@@ -18,7 +18,8 @@ class TrainConfig:
     stage: str = _f("grasp-agnostic", "training stage: grasp-agnostic | grasp-goal | push | alternate",
                     choices=("grasp-agnostic", "grasp-goal", "push", "alternate"))
     out: Path = _f(Path("runs/lite"), "run directory: checkpoints, replay, log.csv, curves.png per stage")
-    backbone: str = _f("lite", "network backbone: lite (CPU-trainable) | densenet121 (the paper's)")
+    backbone: str = _f("lite", "network backbone: lite (CPU-trainable) | lite-os8 (lite at output stride 8; takes "
+                                "lite weights) | densenet121 (the paper's)")
     goal: str = _f("none", "goal input: none (mask applied to Q maps only, the paper's main model) | mask")
     pretrained: Path | None = _f(None, "torchvision densenet121 state_dict file (densenet121 backbone only)")
     init: Path | None = _f(None, "checkpoint (last.pt) or exported model directory (grasp.pt [+ push.pt]) to start "

@@ -89,6 +89,7 @@ class Trainer:
         """Weights from exported TorchScript files (`pushgrasp export` layout); a net without a file keeps its
         fresh initialisation. Raises ModelLoadError for a file made for another backbone or goal input."""
         from pg_policy.model_io import ModelLoadError, load_qnet
+        from pg_policy.nets.registry import get_backbone
 
         for role, net in self.nets.items():
             path = folder / f"{role}.pt"
@@ -96,10 +97,10 @@ class Trainer:
                 print(f"[train] {role} net: no {path}, starting from scratch")
                 continue
             scripted, meta = load_qnet(path)
-            want = {"backbone": self.cfg.backbone, "goal": self.cfg.goal}
-            got = {k: meta.get(k) for k in want}
-            if got != want:
-                raise ModelLoadError(f"{path} is a {got} model; this run trains {want}")
+            takes = (self.cfg.backbone, *get_backbone(self.cfg.backbone).weights_of)
+            if meta.get("backbone") not in takes or meta.get("goal") != self.cfg.goal:
+                raise ModelLoadError(f"{path} is a {meta.get('backbone')!r} / goal {meta.get('goal')!r} model; this "
+                                     f"run trains {self.cfg.backbone!r} / goal {self.cfg.goal!r}")
             own = net.state_dict()
             net.load_state_dict({k: v for k, v in scripted.state_dict().items() if k in own})
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 from torch import nn
@@ -18,7 +19,7 @@ from pg_policy.nets.lite import LiteTrunk
 
 
 def _no_pretrained(module: nn.Module, path: str | Path) -> None:
-    raise ValueError(f"backbone 'lite' has no pretrained weights (got pretrained={str(path)!r}); train it from scratch")
+    raise ValueError(f"lite backbones have no pretrained weights (got pretrained={str(path)!r}); train from scratch")
 
 
 @dataclass(frozen=True)
@@ -28,12 +29,15 @@ class Backbone:
     build: Callable[[], nn.Module]
     load_pretrained: Callable[[nn.Module, str | Path], None]
     description: str
+    weights_of: tuple[str, ...] = ()  # other backbones whose trained weights this one takes unchanged
 
 
 BACKBONES: dict[str, Backbone] = {
     "densenet121": Backbone(DenseNet121Trunk, densenet_load_pretrained,
                             "DenseNet-121 features (torchvision names), stride 32, 1024 ch, ~7.0 M params"),
     "lite": Backbone(LiteTrunk, _no_pretrained, "5 conv-BN-ReLU stages, stride 16, 128 ch, ~0.14 M params"),
+    "lite-os8": Backbone(partial(LiteTrunk, output_stride=8), _no_pretrained,
+                         "lite's parameters at output stride 8 (atrous): Q on a 16 mm grid", weights_of=("lite",)),
 }
 
 
