@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # `make train`: the shipped `lite` model end to end, the paper's four stages in order, each starting from the
-# previous stage's checkpoint, then `pushgrasp export` to catkin_ws/src/pg_policy/models/lite.
+# previous stage's checkpoint, then more alternate iterations at output stride 8 (backbone `lite-os8`, the same
+# parameters) and `pushgrasp export` to catkin_ws/src/pg_policy/models/lite.
 # Re-running resumes: every stage continues from <out>/<stage>/last.pt (checkpoint + disk-backed replay) and a
 # finished stage is skipped, so an interrupted run (Ctrl-C, a closed session) loses at most one checkpoint period.
 # Run it in the background:  nohup make train > train.log 2>&1 &     (progress bars: tail -f train.log)
@@ -57,5 +58,18 @@ for row in "${STAGES[@]}"; do
     exit 3
   fi
 done
-"$py" -m pg_policy.cli export --run "$out" --out "$export_dir"
+# output stride 8 (docs/ARCHITECTURE.md): the stride-16 alternate result loaded as `lite-os8`, then alternate again
+os8_iters=$("$py" -c "print(max(1, round(800 * $scale)))")
+"$py" -m pg_policy.cli export --run "$out" --stage alternate --out "$out/os16_model"
+echo "[recipe] alternate at output stride 8: $os8_iters iterations on dense-8"
+"$py" -m pg_policy.cli train --stage alternate --backbone lite-os8 --init "$out/os16_model" --out "$out/os8" \
+  --scene dense-8 --iterations "$os8_iters" --lr 1e-4 --seed 8 --threads "$threads" --minutes "$minutes" \
+  --guided-exploration 0.7 --grasp-threshold 0.7 --push-budget 3 --epsilon-start 0.3 --epsilon-end 0.1 \
+  --epsilon-decay "$(( os8_iters * 3 / 4 > 0 ? os8_iters * 3 / 4 : 1 ))"
+done_its=$("$py" -c "import torch; print(torch.load('$out/os8/alternate/last.pt', weights_only=False)['iteration'])")
+if [ "$done_its" -lt "$os8_iters" ]; then
+  echo "[recipe] output-stride-8 alternate stopped at $done_its/$os8_iters iterations (time cap): rerun to continue"
+  exit 3
+fi
+"$py" -m pg_policy.cli export --run "$out/os8" --out "$export_dir"
 echo "[recipe] exported $export_dir"
