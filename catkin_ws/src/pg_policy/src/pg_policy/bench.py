@@ -35,7 +35,7 @@ from pg_policy.heightmap import Heightmap
 from pg_policy.inference import PolicyNets, Window, target_window
 from pg_policy.target_mask import radius_cells
 
-VARIANTS = ("lite", "densenet121")
+VARIANTS = ("lite", "lite-os8", "densenet121")
 APPROX_MARGIN_M = 0.1  # window context for backbones without an exact margin
 REFERENCE = "batched"
 BASELINE = "vpg-loop"

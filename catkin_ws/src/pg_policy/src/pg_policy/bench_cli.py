@@ -14,8 +14,8 @@ def _csv(text: str) -> list[str]:
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="decision latency (heightmap -> decision) per variant vs a VPG-style loop")
-    p.add_argument("--variants", type=_csv, default=["lite", "densenet121"],
-                   help="comma-separated backbones (default lite,densenet121)")
+    p.add_argument("--variants", type=_csv, default=["lite", "lite-os8", "densenet121"],
+                   help="comma-separated backbones (default lite,lite-os8,densenet121)")
     p.add_argument("--modes", type=_csv, default=None,
                    help="comma-separated modes (default all: vpg-loop,batched,early-grasp,window,window+early)")
     p.add_argument("--runs", type=int, default=20, help="timed decisions per mode (median reported, default 20)")
