@@ -88,6 +88,13 @@ def test_offline_cli_errors(tmp_path, capsys):
     assert main(["offline", "train", "--data", str(tmp_path / "empty.npz"), "--out", str(tmp_path / "r"),
                  "--backbone", "lite"]) == 2
     assert "no grasp transitions" in capsys.readouterr().err
+    (tmp_path / "junk.npz").write_bytes(b"junk")
+    assert main(["offline", "train", "--data", str(tmp_path / "junk.npz"), "--out", str(tmp_path / "r"),
+                 "--backbone", "lite"]) == 2
+    assert "not a packed experience file" in capsys.readouterr().err
+    assert main(["offline", "train", "--data", str(tmp_path / "none.npz"), "--out", str(tmp_path / "r"),
+                 "--backbone", "lite"]) == 2
+    assert "no such experience file" in capsys.readouterr().err
     if not torch.cuda.is_available():
         assert main(["offline", "train", "--data", str(tmp_path / "empty.npz"), "--out", str(tmp_path / "r"),
                      "--device", "cuda"]) == 2

@@ -83,8 +83,13 @@ class OfflineTrainer:
         self.device = torch.device(cfg.device)
         torch.manual_seed(cfg.seed)
         self.rng = np.random.default_rng(cfg.seed)
-        with np.load(cfg.data) as z:
-            self.data = {k: z[k] for k in z.files}
+        if not Path(cfg.data).is_file():
+            raise FileNotFoundError(f"{cfg.data}: no such experience file (write it with `pushgrasp offline pack`)")
+        try:
+            with np.load(cfg.data, allow_pickle=False) as z:
+                self.data = {k: z[k] for k in z.files}
+        except (OSError, ValueError) as e:
+            raise ValueError(f"{cfg.data}: not a packed experience file ({e})") from e
         if "grasp_reward" not in self.data:
             raise ValueError(f"{cfg.data}: no grasp transitions (write it with `pushgrasp offline pack`)")
         self.nets = {r: qtensor.build(cfg, r).to(self.device) for r in PRIMITIVES}
