@@ -20,17 +20,17 @@ from pathlib import Path
 import numpy as np
 import torch
 
-PRIMITIVES = ("grasp", "push")  # as `pg_policy.replay.PRIMITIVES`
-FIELDS = {"grasp": ("color", "height", "mask", "action", "reward"),
-          "push": ("color", "height", "mask", "action", "reward", "next_color", "next_height", "next_mask", "done")}
+from pg_policy import qtensor
+from pg_policy.replay import PRIMITIVES, ReplayBuffer
 
 
 def pack(replay_dirs: list[Path], out: Path) -> dict[str, int]:
-    """Filled transitions of every replay directory -> one .npz ({primitive}_{field} arrays: colour (N, H, W, 3)
-    uint8, height (N, H, W) float16 m, mask (N, H, W) bool, action (N, 4) int32 (primitive, rotation, row, col),
-    reward (N,) float32, and for pushes next_* and done). Returns transitions per primitive. Raises
-    FileNotFoundError for a directory without meta.json, ValueError for mismatched heightmap shapes."""
-    parts: dict[str, dict[str, list[np.ndarray]]] = {p: {f: [] for f in FIELDS[p]} for p in PRIMITIVES}
+    """Filled transitions of every replay directory -> one .npz of {primitive}_{field} arrays
+    (`ReplayBuffer.filled`: colour (N, H, W, 3) uint8, height (N, H, W) float16 m, mask (N, H, W) bool, action
+    (N, 4) int32 (primitive, rotation, row, col), reward (N,) float32, and for pushes next_* and done). Returns
+    transitions per primitive. Raises FileNotFoundError for a directory without meta.json, ValueError for
+    mismatched heightmap shapes."""
+    parts: dict[str, list[dict[str, np.ndarray]]] = {p: [] for p in PRIMITIVES}
     shapes = set()
     for d in map(Path, replay_dirs):
         meta_path = d / "meta.json"
@@ -38,15 +38,13 @@ def pack(replay_dirs: list[Path], out: Path) -> dict[str, int]:
             raise FileNotFoundError(f"{d}: not a replay buffer directory (no meta.json)")
         meta = json.loads(meta_path.read_text())
         shapes.add(tuple(meta["shape"]))
-        size = int(meta["size"])
-        action = np.load(d / "action.npy", mmap_mode="r")[:size]
-        for k, prim in enumerate(PRIMITIVES):
-            rows = np.nonzero(action[:, 0] == k)[0]
-            for f in FIELDS[prim]:
-                parts[prim][f].append(np.asarray(np.load(d / f"{f}.npy", mmap_mode="r")[rows]))
+        buf = ReplayBuffer(d, int(meta["capacity"]), tuple(meta["shape"]))
+        for prim in PRIMITIVES:
+            parts[prim].append(buf.filled(prim))
     if len(shapes) > 1:
         raise ValueError(f"replay buffers of different heightmap shapes: {sorted(shapes)}")
-    arrays = {f"{p}_{f}": np.concatenate(v) for p in PRIMITIVES for f, v in parts[p].items() if v}
+    arrays = {f"{p}_{f}": np.concatenate([part[f] for part in parts[p]]) for p in PRIMITIVES if parts[p]
+              for f in parts[p][0]}
     Path(out).parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(out, **arrays)
     return {p: int(len(arrays[f"{p}_reward"])) if f"{p}_reward" in arrays else 0 for p in PRIMITIVES}
@@ -77,8 +75,6 @@ class OfflineTrainer:
     """Both nets of one variant, trained from a packed experience file on `cfg.device`."""
 
     def __init__(self, cfg: OfflineConfig) -> None:
-        from pg_policy import qtensor
-
         self.cfg = cfg
         self.device = torch.device(cfg.device)
         torch.manual_seed(cfg.seed)
@@ -99,11 +95,9 @@ class OfflineTrainer:
         self.dir.mkdir(parents=True, exist_ok=True)
 
     def _inputs(self, role: str, idx: np.ndarray, prefix: str = "") -> tuple[torch.Tensor, ...]:
-        d, dev = self.data, self.device
-        c = torch.from_numpy(d[f"{role}_{prefix}color"][idx]).to(dev).permute(0, 3, 1, 2).float().div_(255.0)
-        h = torch.from_numpy(d[f"{role}_{prefix}height"][idx].astype(np.float32)).to(dev).unsqueeze(1)
-        m = torch.from_numpy(d[f"{role}_{prefix}mask"][idx].astype(np.float32)).to(dev).unsqueeze(1)
-        return c, h, m
+        d = self.data
+        return qtensor.tensors(d[f"{role}_{prefix}color"][idx], d[f"{role}_{prefix}height"][idx],
+                               d[f"{role}_{prefix}mask"][idx], self.device)
 
     @torch.no_grad()
     def _push_labels(self, idx: np.ndarray) -> torch.Tensor:

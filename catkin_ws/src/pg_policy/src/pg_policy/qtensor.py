@@ -31,10 +31,15 @@ def build(cfg: Any, role: str) -> QNet:
                       seed=seed)
 
 
-def tensors(color: np.ndarray, height: np.ndarray, mask: np.ndarray) -> tuple[torch.Tensor, ...]:
-    c = torch.from_numpy(np.ascontiguousarray(color)).permute(2, 0, 1).unsqueeze(0).float().div_(255.0)
-    d = torch.from_numpy(np.ascontiguousarray(height, dtype=np.float32)).unsqueeze(0).unsqueeze(0)
-    m = torch.from_numpy(np.ascontiguousarray(mask, dtype=np.float32)).unsqueeze(0).unsqueeze(0)
+def tensors(color: np.ndarray, height: np.ndarray, mask: np.ndarray,
+            device: str | torch.device = "cpu") -> tuple[torch.Tensor, ...]:
+    """One observation ((H, W, 3), (H, W), (H, W)) or a batch ((N, H, W, 3), (N, H, W), (N, H, W)) -> net inputs
+    (N, 3, H, W) in [0, 1], (N, 1, H, W) m, (N, 1, H, W) {0, 1}, float32 on `device` (N = 1 for one)."""
+    if np.ndim(height) == 2:
+        color, height, mask = color[None], np.asarray(height)[None], np.asarray(mask)[None]
+    c = torch.from_numpy(np.ascontiguousarray(color)).to(device).permute(0, 3, 1, 2).float().div_(255.0)
+    d = torch.from_numpy(np.ascontiguousarray(height, dtype=np.float32)).to(device).unsqueeze(1)
+    m = torch.from_numpy(np.ascontiguousarray(mask, dtype=np.float32)).to(device).unsqueeze(1)
     return c, d, m
 
 

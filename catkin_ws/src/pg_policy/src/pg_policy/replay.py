@@ -101,6 +101,16 @@ class ReplayBuffer:
             next_mask=np.array(a["next_mask"][i]) if push else None, done=bool(a["done"][i]),
         )
 
+    def filled(self, primitive: str) -> dict[str, np.ndarray]:
+        """Copies of the stored transitions of one primitive, {field: (N, ...) array} in storage order: colour,
+        height, mask, action, reward, and for pushes next_colour/height/mask and done (grasps have no next)."""
+        a, n = self.arrays_, self.size
+        rows = np.nonzero(a["action"][:n, 0] == PRIMITIVES.index(primitive))[0]
+        names = ["color", "height", "mask", "action", "reward"]
+        if primitive == "push":
+            names += ["next_color", "next_height", "next_mask", "done"]
+        return {name: np.asarray(a[name][rows]) for name in names}
+
     def update_priority(self, i: int, td_error: float) -> None:
         self.arrays_["priority"][i] = abs(td_error) + self.eps_
 
