@@ -144,7 +144,7 @@ def test_guided_exploration_takes_the_heuristics_free_grasps(run_dir, tmp_path):
     assert len(rows) == 2 and all(r["primitive"] == "grasp" and r["explored"] == "2" for r in rows)
 
 
-def test_alternate_push_budget_forces_grasps_and_is_exported(run_dir, tmp_path):
+def test_alternate_push_budget_forces_grasps_and_is_exported(run_dir, tmp_path, capsys):
     import torch
 
     from pg_policy.model_io import load_qnet
@@ -162,3 +162,8 @@ def test_alternate_push_budget_forces_grasps_and_is_exported(run_dir, tmp_path):
     _, meta = load_qnet(tmp_path / "model" / "grasp.pt")
     assert meta["thresholds"] == {"grasp_q": 1e9, "push_budget": 1}
     assert torch.load(out / "alternate" / "last.pt", weights_only=False)["config"]["push_budget"] == "1"
+    assert main(["export", "--run", str(out), "--out", str(tmp_path / "filtered"), "--grasp-filter", "MIN3"]) == 0
+    _, meta = load_qnet(tmp_path / "filtered" / "push.pt")
+    assert meta["thresholds"] == {"grasp_q": 1e9, "push_budget": 1, "grasp_filter": "min3"}
+    assert main(["export", "--run", str(out), "--out", str(tmp_path / "bad"), "--grasp-filter", "max3"]) == 2
+    assert "bad grasp filter" in capsys.readouterr().err and not (tmp_path / "bad").exists()

@@ -209,3 +209,38 @@ def test_heuristic_uncovers_a_hidden_target():
     pol.last_seen = np.array([0.01, 0.0])  # the target was last seen under the blue block
     d = pol.act(obs)
     assert d.primitive == "grasp" and abs(d.x) < 0.01 and abs(d.y) < 0.01 and "uncover" in pol.last_note
+
+
+def test_learned_policies_apply_the_grasp_filter(model_dir):
+    from pg_policy.decision import masked_max
+    from pg_policy.grasp_filter import GraspFilter
+    from pg_policy.policies import observed_target
+
+    obs = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (-0.1, 0.1, CUBE, CUBE, "blue")])
+    raw = make_policy("learned", PolicyOptions(models=(model_dir,)))  # metadata has no filter: none
+    assert str(raw.grasp_filter) == "none"
+    d_raw = raw.act(obs)
+    pol = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_filter="sym+min3"))
+    d = pol.act(obs)
+    filtered = GraspFilter.parse("sym+min3").apply(pol.q_maps()["grasp"])  # q_maps() stays the nets' raw map
+    target = observed_target(obs) & obs.heightmap.valid
+    assert d.grasp_q == pytest.approx(masked_max(filtered, target)) and d.grasp_q <= d_raw.grasp_q
+    go = make_policy("grasp-only", PolicyOptions(models=(model_dir / "grasp.pt",), grasp_filter="min5"))
+    g = go.act(obs)
+    assert g.q == pytest.approx(masked_max(GraspFilter.parse("min5").apply(go.q_maps()["grasp"]), target))
+    with pytest.raises(ValueError, match="bad grasp filter"):
+        make_policy("learned", PolicyOptions(models=(model_dir,), grasp_filter="max3"))
+
+
+def test_grasp_filter_default_comes_from_the_model_metadata(model_dir, tmp_path):
+    import shutil
+
+    from pg_policy.model_io import export_qnet, load_qnet
+
+    for role in ("grasp", "push"):
+        net, meta = load_qnet(model_dir / f"{role}.pt")
+        meta["thresholds"] = {**meta.get("thresholds", {}), "grasp_filter": "min3"}
+        export_qnet(net, tmp_path / f"{role}.pt", meta)
+    assert str(make_policy(str(tmp_path)).grasp_filter) == "min3"
+    assert str(make_policy(str(tmp_path), PolicyOptions(grasp_filter="none")).grasp_filter) == "none"
+    shutil.rmtree(tmp_path)

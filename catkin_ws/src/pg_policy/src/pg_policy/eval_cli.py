@@ -62,6 +62,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ev.add_argument("--failed-grasp-radius", type=float, default=None, metavar="M",
                     help="learned: a failed grasp's closing axis is not retried within M metres in the same trial "
                          "(default: pg_policy.failed_grasps.DEFAULT_RADIUS_M = 0.01; 0 = off)")
+    ev.add_argument("--grasp-filter", default=None, metavar="SPEC",
+                    help="grasp-only/learned: filter Q_g before the decision (pg_policy.grasp_filter: none, sym, "
+                         "min3, mean5, sym+min3, ...) (default: the model metadata's, else none)")
     ev.add_argument("--device", default="cpu", help="torch device of learned policies (default cpu)")
     ev.add_argument("--workers", type=int, default=1,
                     help="parallel simulator processes (default 1); results do not depend on it")
@@ -129,12 +132,13 @@ def _run(args: argparse.Namespace) -> int:
     scenes = expand_scenes(args.scenes)
     opts = PolicyOptions(models=tuple(args.model), seed=args.seed, device=args.device,
                          grasp_threshold=args.grasp_threshold, push_budget=args.push_budget,
-                         failed_grasp_radius_m=args.failed_grasp_radius)
+                         failed_grasp_radius_m=args.failed_grasp_radius, grasp_filter=args.grasp_filter)
     policy = make_policy(args.policy, opts)  # validates the name and the model files before any simulation
     paths = getattr(policy, "model_paths", None)
     if paths:  # workers and the record get the resolved files
         opts = replace(opts, models=tuple(paths))
     policy_name = getattr(policy, "name", args.policy)
+    grasp_filter = getattr(policy, "grasp_filter", None)  # as resolved (flag, else model metadata)
     del policy
     plan = EvalPlan(tuple(scenes), args.trials, args.seed, Limits(args.max_actions, args.max_failed_grasps),
                     args.jitter_xy, math.radians(args.jitter_yaw))
@@ -145,6 +149,7 @@ def _run(args: argparse.Namespace) -> int:
         "max_actions": args.max_actions, "max_failed_grasps": args.max_failed_grasps,
         "jitter_xy_m": args.jitter_xy, "jitter_yaw_deg": args.jitter_yaw, "grasp_threshold": args.grasp_threshold,
         "push_budget": args.push_budget, "failed_grasp_radius_m": args.failed_grasp_radius,
+        "grasp_filter": None if grasp_filter is None else str(grasp_filter),
         "git_commit": git_commit(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "workers": args.workers,
         "host_cpus": os.cpu_count(),
     }

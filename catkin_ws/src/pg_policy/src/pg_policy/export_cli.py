@@ -21,6 +21,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--push-budget", type=int, default=None,
                    help="pushes in a row after which the learned policy grasps even below the threshold, stored "
                         "in the metadata (default: the run's --push-budget, 0 = none, the paper's rule)")
+    p.add_argument("--grasp-filter", default=None, metavar="SPEC",
+                   help="filter applied to Q_g before the decision, stored in the metadata (pg_policy.grasp_filter: "
+                        "none, sym, min3, sym+min3, ...; default: none, the paper's rule)")
     p.set_defaults(run=_run)
 
 
@@ -35,9 +38,13 @@ def latest_checkpoint(run: Path, stage: str | None) -> Path:
 
 
 def export_run(run: Path, out: Path, stage: str | None = None, threshold: float | None = None,
-               push_budget: int | None = None) -> list[Path]:
+               push_budget: int | None = None, grasp_filter: str | None = None) -> list[Path]:
+    """OUT/grasp.pt and OUT/push.pt from the run's checkpoint of `stage` (default: the latest), with the decision
+    parameters in the metadata's thresholds. Raises FileNotFoundError (no checkpoint), ValueError (bad
+    push_budget or grasp_filter)."""
     import torch
 
+    from pg_policy.grasp_filter import GraspFilter
     from pg_policy.model_io import export_qnet
     from pg_policy.nets.qnet import QNetConfig, build_qnet
 
@@ -50,17 +57,20 @@ def export_run(run: Path, out: Path, stage: str | None = None, threshold: float 
         push_budget = int(cfg.get("push_budget", 0))
     if push_budget < 0:
         raise ValueError(f"--push-budget must be >= 0, got {push_budget}")
+    thresholds = {"grasp_q": thr, "push_budget": int(push_budget)}
+    if grasp_filter is not None:
+        thresholds["grasp_filter"] = str(GraspFilter.parse(grasp_filter))
     written = []
     for role in ("grasp", "push"):
         net = build_qnet(qcfg)
         net.load_state_dict(ck["nets"][role])
         meta = {"role": role, "stage": ck["stage"], "iteration": int(ck["iteration"]),
-                "thresholds": {"grasp_q": thr, "push_budget": int(push_budget)}, "source": str(ck_path)}
+                "thresholds": thresholds, "source": str(ck_path)}
         written.append(export_qnet(net, Path(out) / f"{role}.pt", meta))
     return written
 
 
 def _run(args: argparse.Namespace) -> int:
-    for path in export_run(args.run_dir, args.out, args.stage, args.threshold, args.push_budget):
+    for path in export_run(args.run_dir, args.out, args.stage, args.threshold, args.push_budget, args.grasp_filter):
         print(f"wrote {path}")
     return 0

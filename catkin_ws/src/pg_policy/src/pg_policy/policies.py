@@ -59,7 +59,8 @@ class PolicyOptions:
     model metadata's threshold (learned); push_budget: overrides the metadata's push budget (learned: after this
     many pushes in a row it grasps even below the threshold; 0 = no budget); failed_grasp_radius_m (learned): a
     failed grasp's closing axis is not retried within this radius in the same trial (pg_policy.failed_grasps;
-    None = its DEFAULT_RADIUS_M, 0 = off)."""
+    None = its DEFAULT_RADIUS_M, 0 = off); grasp_filter (grasp-only, learned): a pg_policy.grasp_filter spec
+    applied to Q_g before the decision (None = the model metadata's thresholds.grasp_filter, else "none")."""
 
     models: tuple[Path, ...] = ()
     seed: int = 0
@@ -68,6 +69,7 @@ class PolicyOptions:
     grasp_threshold: float | None = None
     push_budget: int | None = None
     failed_grasp_radius_m: float | None = None
+    grasp_filter: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -201,6 +203,17 @@ def _load_nets(grasp: Path, push: Path | None, device: str) -> Any:
     return PolicyNets(net, net, {"grasp": meta, "push": meta}, device)
 
 
+def grasp_filter_of(opts: PolicyOptions, metadata: Any) -> Any:
+    """The pg_policy.grasp_filter.GraspFilter of `opts.grasp_filter`, else of the grasp model's metadata
+    (thresholds.grasp_filter), else none. Raises ValueError for a bad spec."""
+    from pg_policy.grasp_filter import GraspFilter
+
+    spec = opts.grasp_filter
+    if spec is None and isinstance(metadata, dict):
+        spec = (metadata.get("thresholds") or {}).get("grasp_filter")
+    return GraspFilter.parse(spec)
+
+
 def _goal_or_all(obs: Any) -> np.ndarray:
     """The target mask; when the target is not visible, every object cell (goal-agnostic: uncover it)."""
     from pg_policy.target_mask import MIN_VISIBLE_CELLS
@@ -213,7 +226,8 @@ def _goal_or_all(obs: Any) -> np.ndarray:
 
 
 class GraspOnlyPolicy(_Base):
-    """Always grasps at the argmax of Q_g over the target mask (all objects when the target is not visible)."""
+    """Always grasps at the argmax of the (filtered: `grasp_filter_of`) Q_g over the target mask (all objects when
+    the target is not visible)."""
 
     name = "grasp-only"
 
@@ -222,14 +236,15 @@ class GraspOnlyPolicy(_Base):
         grasp, _ = resolve_models(opts.models, need_push=False)
         self.model_paths: tuple[Path, ...] = (grasp,)
         self.nets = _load_nets(grasp, None, opts.device)
+        self.grasp_filter = grasp_filter_of(opts, self.nets.metadata["grasp"])
 
     def act(self, obs: Any) -> Decision:
         from pg_policy.decision import masked_argmax
 
         hm = obs.heightmap
         mask = _goal_or_all(obs)
-        q = self.nets.q_maps(hm, mask, nets=("grasp",))["grasp"]
-        self._q = {"grasp": q}
+        self._q = {"grasp": self.nets.q_maps(hm, mask, nets=("grasp",))["grasp"]}
+        q = self.grasp_filter.apply(self._q["grasp"])
         r, row, col, value = masked_argmax(q, mask & hm.valid if (mask & hm.valid).any() else mask)
         return self.decision(hm, "grasp", r, row, col, value, value)
 
@@ -247,7 +262,8 @@ class LearnedPolicy(_Base):
     """Grasp and push nets + pg_policy.decision.decide (grasp if masked max Q_g > threshold, else push); with a push
     budget B > 0 (model metadata thresholds.push_budget or PolicyOptions.push_budget) it grasps after B pushes in a
     row whatever Q_g says, as the paper's push stage does in training; a grasp that failed is not retried at the same
-    place and closing axis within the trial (pg_policy.failed_grasps). Both are deviations at test time: see
+    place and closing axis within the trial (pg_policy.failed_grasps); Q_g passes through the grasp filter
+    (`grasp_filter_of`, pg_policy.grasp_filter) before the decision. All three are deviations at test time: see
     docs/ARCHITECTURE.md."""
 
     name = "learned"
@@ -267,6 +283,7 @@ class LearnedPolicy(_Base):
         self.pushes_in_row = 0
         radius = DEFAULT_RADIUS_M if opts.failed_grasp_radius_m is None else opts.failed_grasp_radius_m
         self.failed = FailedGrasps(self.rotations, radius)
+        self.grasp_filter = grasp_filter_of(opts, self.nets.metadata["grasp"])
         self.last: Decision | None = None
 
     def reset(self, seed: int | None = None) -> None:
@@ -284,7 +301,7 @@ class LearnedPolicy(_Base):
             self.failed.add(self.last.rotation, self.last.x, self.last.y)
         self._q = self.nets.q_maps(hm, mask)
         spent = 0 < self.push_budget <= self.pushes_in_row
-        q_grasp = self.failed.suppress(self._q["grasp"], hm)
+        q_grasp = self.failed.suppress(self.grasp_filter.apply(self._q["grasp"]), hm)
         d = decide(q_grasp, self._q["push"], mask, hm, self.prims, -math.inf if spent else self.threshold)
         self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0
         self.last = d
