@@ -222,12 +222,14 @@ def test_learned_policies_apply_the_grasp_filter(model_dir):
     d_raw = raw.act(obs)
     pol = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_filter="sym+min3"))
     d = pol.act(obs)
-    filtered = GraspFilter.parse("sym+min3").apply(pol.q_maps()["grasp"])  # q_maps() stays the nets' raw map
+    filtered = GraspFilter.parse("sym+min3").apply(raw.q_maps()["grasp"])  # same nets, same observation
+    np.testing.assert_allclose(pol.q_maps()["grasp"], filtered)  # q_maps() shows the map the decision used
+    np.testing.assert_array_equal(pol.q_maps()["push"], raw.q_maps()["push"])
     target = observed_target(obs) & obs.heightmap.valid
     assert d.grasp_q == pytest.approx(masked_max(filtered, target)) and d.grasp_q <= d_raw.grasp_q
     go = make_policy("grasp-only", PolicyOptions(models=(model_dir / "grasp.pt",), grasp_filter="min5"))
     g = go.act(obs)
-    assert g.q == pytest.approx(masked_max(GraspFilter.parse("min5").apply(go.q_maps()["grasp"]), target))
+    assert g.q == pytest.approx(masked_max(GraspFilter.parse("min5").apply(raw.q_maps()["grasp"]), target))
     with pytest.raises(ValueError, match="bad grasp filter"):
         make_policy("learned", PolicyOptions(models=(model_dir,), grasp_filter="max3"))
 

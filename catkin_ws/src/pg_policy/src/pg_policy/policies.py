@@ -4,7 +4,8 @@ A policy maps an observation (pg_policy.sim_env.EnvObservation, or anything with
 target's palette colour name) to a pg_policy.decision.Decision. It finds the target itself, from the colour
 heightmap with pg_policy.target_mask (never from the simulator's ground truth). `reset(seed)` starts a new trial
 (seeding the policy's own randomness); `q_maps()` returns the Q maps behind the last decision ({"grasp": (R, H, W),
-"push": (R, H, W)} float arrays) for policies that have them, else {}. A policy may also keep a `last_note`
+"push": (R, H, W)} float arrays; Q_g after the policy's grasp filter, pg_policy.grasp_filter) for policies that
+have them, else {}. A policy may also keep a `last_note`
 string saying why it took its last decision (pg_policy.evaluate logs it with the action).
 
 REGISTRY (name -> factory taking PolicyOptions):
@@ -243,8 +244,8 @@ class GraspOnlyPolicy(_Base):
 
         hm = obs.heightmap
         mask = _goal_or_all(obs)
-        self._q = {"grasp": self.nets.q_maps(hm, mask, nets=("grasp",))["grasp"]}
-        q = self.grasp_filter.apply(self._q["grasp"])
+        q = self.grasp_filter.apply(self.nets.q_maps(hm, mask, nets=("grasp",))["grasp"])
+        self._q = {"grasp": q}
         r, row, col, value = masked_argmax(q, mask & hm.valid if (mask & hm.valid).any() else mask)
         return self.decision(hm, "grasp", r, row, col, value, value)
 
@@ -299,9 +300,10 @@ class LearnedPolicy(_Base):
         mask = _goal_or_all(obs)
         if self.last is not None and self.last.primitive == "grasp":  # asked again: that grasp missed the target
             self.failed.add(self.last.rotation, self.last.x, self.last.y)
-        self._q = self.nets.q_maps(hm, mask)
+        q = self.nets.q_maps(hm, mask)
+        self._q = {"grasp": self.grasp_filter.apply(q["grasp"]), "push": q["push"]}
         spent = 0 < self.push_budget <= self.pushes_in_row
-        q_grasp = self.failed.suppress(self.grasp_filter.apply(self._q["grasp"]), hm)
+        q_grasp = self.failed.suppress(self._q["grasp"], hm)
         d = decide(q_grasp, self._q["push"], mask, hm, self.prims, -math.inf if spent else self.threshold)
         self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0
         self.last = d
