@@ -24,3 +24,17 @@ def test_infer_defaults_to_the_shipped_model(tmp_path, capsys):
     out = tmp_path / "lite.png"
     assert main(["infer", "--scene", "packed/case01", "--out", str(out)]) == 0
     assert out.stat().st_size > 10_000 and "masked max Q_g" in capsys.readouterr().out  # Q maps: a learned policy
+
+
+def test_infer_grasp_filter_flag_changes_the_deciding_value(tmp_path, capsys):
+    import re
+
+    q = {}
+    for spec in ("none", "min3"):
+        assert main(["infer", "--scene", "packed/case01", "--out", str(tmp_path / f"{spec}.png"),
+                     "--grasp-filter", spec]) == 0
+        q[spec] = float(re.search(r"masked max Q_g ([-0-9.]+)", capsys.readouterr().out).group(1))
+    assert q["min3"] <= q["none"]  # a minimum filter never raises the masked max
+    bad = ["infer", "--scene", "packed/case01", "--out", str(tmp_path / "bad.png"), "--grasp-filter", "max3"]
+    assert main(bad) == 2
+    assert "bad grasp filter" in capsys.readouterr().err and not (tmp_path / "bad.png").exists()

@@ -22,12 +22,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--steps", type=int, default=0,
                    help="execute up to N decisions in the simulator (stops once the target is grasped), one PNG "
                         "each plus the scene after; default 0: draw the first decision, execute nothing")
+    p.add_argument("--grasp-filter", default=None, metavar="SPEC",
+                   help="learned models: filter of Q_g before the decision (none, min3, sym+min3, ...; default: the "
+                        "model's own); the grasp panel shows the filtered map")
     p.set_defaults(run=_run)
 
 
-def draw(out: Path, obs, decision, q: dict[str, np.ndarray], title: str) -> Path:
+def draw(out: Path, obs, decision, q: dict[str, np.ndarray], title: str, grasp_filter: object = None) -> Path:
     """Colour heightmap with target outline and the decision arrow | max-over-rotations Q_g | Q_p (masked views).
-    decision None: no arrow; q may be empty (the heightmap panel alone)."""
+    decision None: no arrow; q may be empty (the heightmap panel alone); grasp_filter: named in the Q_g panel's
+    title when given and not "none"."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -38,7 +42,9 @@ def draw(out: Path, obs, decision, q: dict[str, np.ndarray], title: str) -> Path
     hm = obs.heightmap
     mask = target_mask(hm.color, hm.valid, obs.target)
     first = "colour heightmap" + (" + decision" if decision is not None else "")
-    panels = [(first, None)] + [(f"{k} Q (max over rotations)", v) for k, v in q.items()]
+    after = f" after {grasp_filter}" if grasp_filter is not None and str(grasp_filter) != "none" else ""
+    panels = [(first, None)] + [(f"{k} Q{after if k == 'grasp' else ''} (max over rotations)", v)
+                                for k, v in q.items()]
     fig, axes = plt.subplots(1, len(panels), figsize=(5 * len(panels), 5), dpi=100, squeeze=False)
     for ax, (name, maps) in zip(axes[0], panels, strict=True):
         if maps is None:
@@ -74,13 +80,18 @@ def _title(scene: str, obs, d) -> str:
             f"yaw {np.degrees(d.yaw):.1f} deg, q {d.q:.3f} (masked max Q_g {d.grasp_q:.3f})")
 
 
+def _filter_of(policy) -> object:
+    """The policy's grasp filter (learned policies), else None."""
+    return getattr(policy, "grasp_filter", None)
+
+
 def _run(args: argparse.Namespace) -> int:
     from pg_policy.policies import PolicyOptions, make_policy
     from pg_policy.sim_env import SimEnv
 
     if args.steps < 0:
         raise ValueError("--steps must be >= 0")
-    policy = make_policy(args.model, PolicyOptions(seed=args.seed))
+    policy = make_policy(args.model, PolicyOptions(seed=args.seed, grasp_filter=args.grasp_filter))
     with SimEnv() as env:
         obs = env.reset(args.scene, seed=args.seed)
         if args.target:
@@ -89,7 +100,8 @@ def _run(args: argparse.Namespace) -> int:
         if args.steps == 0:
             d = policy.act(obs)
             print(_title(args.scene, obs, d))
-            print(f"wrote {draw(args.out, obs, d, policy.q_maps(), _title(args.scene, obs, d))}")
+            out = draw(args.out, obs, d, policy.q_maps(), _title(args.scene, obs, d), _filter_of(policy))
+            print(f"wrote {out}")
             return 0
         return _rollout(args, env, policy, obs)
 
@@ -101,7 +113,7 @@ def _rollout(args: argparse.Namespace, env, policy, obs) -> int:
     for k in range(1, args.steps + 1):
         d = policy.act(obs)
         title = f"step {k}: " + _title(args.scene, obs, d)
-        draw(Path(f"{stem}_{k:02d}.png"), obs, d, policy.q_maps(), title)
+        draw(Path(f"{stem}_{k:02d}.png"), obs, d, policy.q_maps(), title, _filter_of(policy))
         res = env.step(d.primitive, d.x, d.y, d.z, d.yaw)
         print(f"{title} -> {res.message}{' (target grasped)' if res.target_grasped else ''}")
         nxt = env.observe()
