@@ -80,11 +80,6 @@ def _title(scene: str, obs, d) -> str:
             f"yaw {np.degrees(d.yaw):.1f} deg, q {d.q:.3f} (masked max Q_g {d.grasp_q:.3f})")
 
 
-def _filter_of(policy) -> object:
-    """The policy's grasp filter (learned policies), else None."""
-    return getattr(policy, "grasp_filter", None)
-
-
 def _run(args: argparse.Namespace) -> int:
     from pg_policy.policies import PolicyOptions, make_policy
     from pg_policy.sim_env import SimEnv
@@ -92,6 +87,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.steps < 0:
         raise ValueError("--steps must be >= 0")
     policy = make_policy(args.model, PolicyOptions(seed=args.seed, grasp_filter=args.grasp_filter))
+    grasp_filter = getattr(policy, "grasp_filter", None)  # learned policies only: named in the Q_g panel
     with SimEnv() as env:
         obs = env.reset(args.scene, seed=args.seed)
         if args.target:
@@ -100,20 +96,20 @@ def _run(args: argparse.Namespace) -> int:
         if args.steps == 0:
             d = policy.act(obs)
             print(_title(args.scene, obs, d))
-            out = draw(args.out, obs, d, policy.q_maps(), _title(args.scene, obs, d), _filter_of(policy))
+            out = draw(args.out, obs, d, policy.q_maps(), _title(args.scene, obs, d), grasp_filter)
             print(f"wrote {out}")
             return 0
-        return _rollout(args, env, policy, obs)
+        return _rollout(args, env, policy, obs, grasp_filter)
 
 
-def _rollout(args: argparse.Namespace, env, policy, obs) -> int:
+def _rollout(args: argparse.Namespace, env, policy, obs, grasp_filter: object = None) -> int:
     """Decide, draw, execute, up to args.steps times; exit status 0 once the target is grasped, else 1."""
     stem = args.out.with_suffix("")
     stem.parent.mkdir(parents=True, exist_ok=True)
     for k in range(1, args.steps + 1):
         d = policy.act(obs)
         title = f"step {k}: " + _title(args.scene, obs, d)
-        draw(Path(f"{stem}_{k:02d}.png"), obs, d, policy.q_maps(), title, _filter_of(policy))
+        draw(Path(f"{stem}_{k:02d}.png"), obs, d, policy.q_maps(), title, grasp_filter)
         res = env.step(d.primitive, d.x, d.y, d.z, d.yaw)
         print(f"{title} -> {res.message}{' (target grasped)' if res.target_grasped else ''}")
         nxt = env.observe()

@@ -204,14 +204,18 @@ def _load_nets(grasp: Path, push: Path | None, device: str) -> Any:
     return PolicyNets(net, net, {"grasp": meta, "push": meta}, device)
 
 
+def metadata_thresholds(metadata: Any) -> dict[str, Any]:
+    """The decision parameters stored with a grasp model (metadata "thresholds", pg_policy.model_io); {} if none."""
+    thresholds = metadata.get("thresholds") if isinstance(metadata, dict) else None
+    return thresholds if isinstance(thresholds, dict) else {}
+
+
 def grasp_filter_of(opts: PolicyOptions, metadata: Any) -> Any:
     """The pg_policy.grasp_filter.GraspFilter of `opts.grasp_filter`, else of the grasp model's metadata
     (thresholds.grasp_filter), else none. Raises ValueError for a bad spec."""
     from pg_policy.grasp_filter import GraspFilter
 
-    spec = opts.grasp_filter
-    if spec is None and isinstance(metadata, dict):
-        spec = (metadata.get("thresholds") or {}).get("grasp_filter")
+    spec = opts.grasp_filter if opts.grasp_filter is not None else metadata_thresholds(metadata).get("grasp_filter")
     return GraspFilter.parse(spec)
 
 
@@ -253,8 +257,8 @@ class GraspOnlyPolicy(_Base):
 def threshold_from_metadata(metadata: Any) -> float:
     """The grasp threshold stored with a grasp model (metadata "thresholds" -> "grasp_q", pg_policy.model_io);
     ValueError when absent."""
-    thresholds = metadata.get("thresholds") if isinstance(metadata, dict) else None
-    if not isinstance(thresholds, dict) or "grasp_q" not in thresholds:
+    thresholds = metadata_thresholds(metadata)
+    if "grasp_q" not in thresholds:
         raise ValueError("the grasp model's metadata holds no thresholds.grasp_q; pass --grasp-threshold")
     return float(thresholds["grasp_q"])
 
@@ -277,7 +281,7 @@ class LearnedPolicy(_Base):
         self.threshold = (opts.grasp_threshold if opts.grasp_threshold is not None
                           else threshold_from_metadata(self.nets.metadata["grasp"]))
         budget = opts.push_budget if opts.push_budget is not None else \
-            (self.nets.metadata["grasp"].get("thresholds") or {}).get("push_budget", 0)
+            metadata_thresholds(self.nets.metadata["grasp"]).get("push_budget", 0)
         if int(budget) < 0:
             raise ValueError(f"push budget must be >= 0 (0 = none), got {budget}")
         self.push_budget = int(budget)
