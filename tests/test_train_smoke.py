@@ -167,3 +167,25 @@ def test_alternate_push_budget_forces_grasps_and_is_exported(run_dir, tmp_path, 
     assert meta["thresholds"] == {"grasp_q": 1e9, "push_budget": 1, "grasp_filter": "min3"}
     assert main(["export", "--run", str(out), "--out", str(tmp_path / "bad"), "--grasp-filter", "max3"]) == 2
     assert "bad grasp filter" in capsys.readouterr().err and not (tmp_path / "bad").exists()
+
+
+def test_a_scene_list_takes_its_families_in_turn(tmp_path):
+    from pg_policy.train_config import TrainConfig
+    from pg_policy.trainer import Trainer
+
+    trainer = Trainer(TrainConfig(stage="grasp-agnostic", out=tmp_path, iterations=1, scene="dense-4, random-2"))
+    try:
+        counts = []
+        for _ in range(3):
+            trainer._reset()
+            counts.append(len(trainer.env.world.objects))
+        assert counts == [4, 2, 4]
+    finally:
+        trainer.env.close()
+
+
+@pytest.mark.parametrize("scene", ["dense-8,", "packed-3", "random-0", "random-ten"])
+def test_a_bad_scene_list_is_refused_before_anything_is_written(tmp_path, capsys, scene):
+    out = tmp_path / "run"
+    assert main(["train", "--stage", "grasp-agnostic", "--out", str(out), "--scene", scene]) == 2
+    assert "is not random-N or dense-N" in capsys.readouterr().err and not out.exists()

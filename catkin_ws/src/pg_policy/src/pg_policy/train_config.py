@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import re
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 
 TRAIN_SEED_LIMIT = 1_000_000  # training seeds are < this; evaluation seeds are >= this (disjoint)
+_SCENE = re.compile(r"^(random|dense)-([1-9][0-9]*)$")
 
 
 def _f(default, help_text: str, **kw):
@@ -26,7 +28,8 @@ class TrainConfig:
                                  "from (default: the previous stage's last.pt in --out)")
     iterations: int = _f(2000, "actions to execute in this stage (the run resumes from its checkpoint)")
     minutes: float = _f(0.0, "wall-clock budget in minutes for this invocation (0 = no limit)")
-    scene: str = _f("random-10", "training scenes: random-N (N objects dropped) or dense-N (N packed objects)")
+    scene: str = _f("random-10", "training scenes: random-N (N objects dropped) or dense-N (N packed objects); a "
+                                 "comma-separated list (e.g. dense-8,random-15) takes them in turn, one per episode")
     seed: int = _f(0, f"training seed (< {TRAIN_SEED_LIMIT}; evaluation uses seeds >= {TRAIN_SEED_LIMIT})")
     lr: float = _f(1e-4, "Adam learning rate (paper: 1e-4)")
     weight_decay: float = _f(2e-5, "Adam weight decay (paper: 2e-5)")
@@ -70,4 +73,16 @@ def from_args(args: argparse.Namespace) -> TrainConfig:
     cfg = TrainConfig(**{f.name: getattr(args, f.name) for f in fields(TrainConfig)})
     if not 0 <= cfg.seed < TRAIN_SEED_LIMIT:
         raise ValueError(f"training seed {cfg.seed} must be in [0, {TRAIN_SEED_LIMIT}) (evaluation seeds are above)")
+    scene_list(cfg.scene)
     return cfg
+
+
+def scene_list(spec: str) -> list[str]:
+    """The training scene families of `spec` ("dense-8" or "dense-8,random-15"), in episode order.
+    Raises ValueError on an empty list or an entry that is not random-N / dense-N."""
+    scenes = [s.strip() for s in spec.split(",")]
+    bad = [s for s in scenes if not _SCENE.match(s)]
+    if bad:
+        raise ValueError(f"--scene {spec!r}: {', '.join(repr(b) for b in bad)} is not random-N or dense-N "
+                         "(N objects, N >= 1); separate several with commas")
+    return scenes

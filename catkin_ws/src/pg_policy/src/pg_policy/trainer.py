@@ -21,7 +21,7 @@ from pg_policy.geometry import load
 from pg_policy.heightmap import Heightmap
 from pg_policy.replay import ReplayBuffer, Transition
 from pg_policy.stages import STAGES, choose_primitive, epsilon, explore_action
-from pg_policy.train_config import TrainConfig
+from pg_policy.train_config import TrainConfig, scene_list
 
 # explored: 0 = greedy, 1 = uniformly random, 2 = the heuristic's push or free grasp (guided exploration)
 LOG_FIELDS = ["iteration", "episode", "primitive", "rotation", "row", "col", "q", "explored", "reward", "grasped",
@@ -172,9 +172,9 @@ class Trainer:
         the picked target is not visible at all (a policy cannot act on a target it does not see)."""
         for _ in range(draws):
             self.episode += 1
-            kind, n = self.cfg.scene.split("-")
+            scenes = scene_list(self.cfg.scene)
             seed = (self.cfg.seed * 100_003 + self.episode) % 1_000_000
-            self.env.reset(f"{kind}-{n}", seed=seed)
+            self.env.reset(scenes[(self.episode - 1) % len(scenes)], seed=seed)
             self._pick_target()
             self.ep_ = {"actions": 0, "failed": 0, "pushes": 0, "in_row": 0}
             obs = self.env.observe()
