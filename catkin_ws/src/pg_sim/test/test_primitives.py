@@ -92,3 +92,27 @@ def test_outside_workspace_is_refused_and_nothing_moves(world, xyz):
 def test_unknown_arm_refused(world):
     with pytest.raises(PrimitiveRefused, match="unknown arm"):
         PrimitiveExecutor(world).grasp(0.0, 0.0, 0.02, 0.0, arm="middle")
+
+
+def _cube(name, color, x, z, size, target=False):
+    return ObjectSpec(shape="cube", size=(size, size, size), color=resolve_color(color), pose=(x, 0.0, z, 0, 0, 0),
+                      mesh=None, target=target, name=name)
+
+
+@pytest.mark.parametrize("layout", ["stacked", "side-by-side"])
+def test_a_target_lifted_with_a_neighbour_counts_as_grasped_and_both_leave(world, layout):
+    # The jaw closes on the target and a neighbour together: both leave the table, the target is credited (a rule
+    # that credited the lowest body id in the jaw reported the neighbour and carried the target off in the gripper).
+    s = 0.03
+    if layout == "stacked":
+        objs = (_cube("below", "blue", 0.0, s / 2, s), _cube("target", "green", 0.0, 1.5 * s, s, target=True))
+    else:
+        objs = (_cube("left", "blue", -s / 2 - 0.001, s / 2, s),
+                _cube("target", "green", s / 2 + 0.001, s / 2, s, target=True))
+    world.load_scene(SceneSpec(name=layout, target="green", objects=objs, family="test"))
+    target = world.target_id
+    (below,) = set(world.objects) - {target}
+    height, r, c = _heights(world, 0.0, 0.0)
+    res = PrimitiveExecutor(world).grasp(0.0, 0.0, grasp_z(height, r, c, world.geometry.primitives), 0.0)
+    assert res.grasped and res.target_grasped and res.grasped_object == target, res
+    assert below not in world.objects and target not in world.objects

@@ -134,6 +134,7 @@ class PrimitiveExecutor:
         t0 = world.sim_time
         driver.set_deadline(t0 + self.prims_.time_budget)
         grasped, held, message = False, None, "ok"
+        lifted: list[int] = []  # body ids in the closed jaw after the lift (grasp only)
         try:
             driver.command_gripper(g.max_opening if primitive == "grasp" else 0.0)
             driver.follow(plan.approach)
@@ -142,7 +143,8 @@ class PrimitiveExecutor:
                 driver.gripper(0.0)
                 driver.follow(plan.cartesian[1], [length / speed for length in plan.lengths[1]])
                 grasped = driver.opening() > g.closed_threshold
-                held = self._held_object(driver) if grasped else None
+                lifted = self._held_objects(driver) if grasped else []
+                held = self._credited(lifted)
                 message = "grasped" if grasped else "nothing grasped: fingers closed"
             else:
                 pushing, after = plan.cartesian[1:], plan.lengths[1:]
@@ -153,22 +155,35 @@ class PrimitiveExecutor:
         except MotionTimeout as exc:
             executed, message = False, str(exc)
         target_grasped = held is not None and held == world.target_id
-        if held is not None and self.remove_grasped_:
-            world.remove_object(held)
+        for body in lifted if self.remove_grasped_ else []:  # everything lifted leaves the scene
+            world.remove_object(body)
         self._go_home(driver, plan.arm)
         return PrimitiveResult(primitive, plan.arm, executed, grasped, held, target_grasped,
                                world.sim_time - t0, message)
 
-    def _held_object(self, driver: ArmDriver) -> int | None:
-        """The object touching both fingers (ground truth), else the one touching either."""
+    def _held_objects(self, driver: ArmDriver) -> list[int]:
+        """Body ids of the objects the closed jaw lifted (ground truth), sorted: every object touching a finger
+        whose lowest point rose above half the lift height (several when the jaw clamped neighbours together);
+        when none did, the old contact rule: the lowest id touching both fingers, else either; [] if none."""
         world = self.world_
         touching = []
         for finger in driver.arm.fingers:
             pts = p.getContactPoints(bodyA=world.robot.body, linkIndexA=finger, physicsClientId=world.client)
             touching.append({c[2] for c in pts if c[2] in world.objects})
-        both = touching[0] & touching[1]
-        pick = both or touching[0] | touching[1]
-        return min(pick) if pick else None
+        either = touching[0] | touching[1]
+        clearance = 0.5 * self.prims_.lift_height  # m above the table (z = 0 in `world`)
+        raised = sorted(b for b in either if p.getAABB(b, physicsClientId=world.client)[0][2] > clearance)
+        if raised:
+            return raised
+        pick = (touching[0] & touching[1]) or either
+        return [min(pick)] if pick else []
+
+    def _credited(self, lifted: list[int]) -> int | None:
+        """The grasped object a result reports: the target when it is among `lifted` (it left the table between
+        the fingers, with or without a neighbour), else the lowest id; None if nothing was lifted."""
+        if self.world_.target_id in lifted:
+            return self.world_.target_id
+        return lifted[0] if lifted else None
 
     def _go_home(self, driver: ArmDriver, arm: str) -> None:
         home = np.array(self.geo_.robot.arms[arm].home)
