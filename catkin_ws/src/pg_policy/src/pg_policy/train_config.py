@@ -3,12 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import re
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 
 TRAIN_SEED_LIMIT = 1_000_000  # training seeds are < this; evaluation seeds are >= this (disjoint)
-_SCENE = re.compile(r"^(random|dense)-([1-9][0-9]*)$")
 
 
 def _f(default, help_text: str, **kw):
@@ -80,8 +78,10 @@ def from_args(args: argparse.Namespace) -> TrainConfig:
 def scene_list(spec: str) -> list[str]:
     """The training scene families of `spec` ("dense-8" or "dense-8,random-15"), in episode order.
     Raises ValueError on an empty list or an entry that is not random-N / dense-N."""
+    from pg_sim.scene_source import GENERATED  # the simulator's own name pattern (imported at run time only)
+
     scenes = [s.strip() for s in spec.split(",")]
-    bad = [s for s in scenes if not _SCENE.match(s)]
+    bad = [s for s in scenes if not (m := GENERATED.match(s)) or int(m.group(2)) < 1]
     if bad:
         raise ValueError(f"--scene {spec!r}: {', '.join(repr(b) for b in bad)} is not random-N or dense-N "
                          "(N objects, N >= 1); separate several with commas")

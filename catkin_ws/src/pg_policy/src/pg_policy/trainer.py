@@ -37,6 +37,7 @@ class Trainer:
         torch.set_num_threads(cfg.threads)
         torch.manual_seed(cfg.seed)
         self.cfg = cfg
+        self.scenes_ = scene_list(cfg.scene)  # training scene families, one per episode in turn
         self.geo = load()
         self.stage = STAGES[cfg.stage]
         self.dir = Path(cfg.out) / cfg.stage
@@ -172,9 +173,8 @@ class Trainer:
         the picked target is not visible at all (a policy cannot act on a target it does not see)."""
         for _ in range(draws):
             self.episode += 1
-            scenes = scene_list(self.cfg.scene)
             seed = (self.cfg.seed * 100_003 + self.episode) % 1_000_000
-            self.env.reset(scenes[(self.episode - 1) % len(scenes)], seed=seed)
+            self.env.reset(self.scenes_[(self.episode - 1) % len(self.scenes_)], seed=seed)
             self._pick_target()
             self.ep_ = {"actions": 0, "failed": 0, "pushes": 0, "in_row": 0}
             obs = self.env.observe()
