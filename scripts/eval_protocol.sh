@@ -4,6 +4,7 @@
 # seeds are below it). One `pushgrasp eval` per family (OUT/packed, OUT/household, OUT/random): a family whose
 # results.json exists is skipped, so an interrupted run resumes at the family it was in.
 # usage: scripts/eval_protocol.sh POLICY OUT [more `pushgrasp eval` arguments, e.g. --workers 2 --model DIR]
+# PG_PYTHON: the Python to run it with (default: the project venv's)
 set -euo pipefail
 if [ $# -lt 2 ]; then
   echo "usage: $0 POLICY OUT [pushgrasp eval arguments]" >&2
@@ -23,6 +24,6 @@ for family in packed household random; do
   fi
   echo "[eval] $policy on $family: $trials trials per scene from seed $seed"
   # shellcheck disable=SC2086
-  "$repo/.venv/bin/python" -m pg_policy.cli eval --policy "$policy" --scenes ${FAMILIES[$family]} \
+  "${PG_PYTHON:-$repo/.venv/bin/python}" -m pg_policy.cli eval --policy "$policy" --scenes ${FAMILIES[$family]} \
     --trials "$trials" --seed "$seed" --out "$out/$family" "$@"
 done

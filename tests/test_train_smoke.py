@@ -189,3 +189,26 @@ def test_a_bad_scene_list_is_refused_before_anything_is_written(tmp_path, capsys
     out = tmp_path / "run"
     assert main(["train", "--stage", "grasp-agnostic", "--out", str(out), "--scene", scene]) == 2
     assert "is not random-N or dense-N" in capsys.readouterr().err and not out.exists()
+
+
+@pytest.mark.parametrize("device", ["gpu", "mps", "cuda:7"])
+def test_a_device_this_machine_lacks_is_refused_before_anything_is_written(tmp_path, capsys, device):
+    import torch
+
+    if device == "cuda:7" and torch.cuda.device_count() > 7:
+        pytest.skip("this machine has eight CUDA devices")
+    out = tmp_path / "run"
+    assert main(["train", "--stage", "grasp-agnostic", "--out", str(out), "--device", device]) == 2
+    assert f"--device {device!r}" in capsys.readouterr().err and not out.exists()
+
+
+def test_a_cuda_run_checkpoints_loadable_on_the_cpu(tmp_path):
+    import torch
+
+    if not torch.cuda.is_available():
+        pytest.skip("no CUDA device on this machine")
+    _train(tmp_path, "grasp-agnostic", 2, "random-3")
+    assert main(["train", "--stage", "grasp-agnostic", "--out", str(tmp_path), "--iterations", "3", "--scene",
+                 "random-3", "--device", "cuda", "--replay-capacity", "32", "--max-actions", "4"]) == 0
+    ck = torch.load(tmp_path / "grasp-agnostic" / "last.pt", map_location="cpu", weights_only=False)
+    assert ck["iteration"] == 3 and all(v.device.type == "cpu" for v in ck["nets"]["grasp"].values())

@@ -51,13 +51,13 @@ def forward(net: QNet, color: np.ndarray, height: np.ndarray, mask: np.ndarray, 
 
 @torch.inference_mode()
 def q_maps(nets: dict[str, QNet], hm: Heightmap, mask: np.ndarray, roles: tuple[str, ...]) -> dict[str, np.ndarray]:
-    """All-rotation Q maps {role: (R, H, W)} of the listed nets, in eval mode."""
-    c, d, m = tensors(hm.color, hm.height, mask)
+    """All-rotation Q maps {role: (R, H, W)} of the listed nets (all on one device), in eval mode, on the host."""
+    c, d, m = tensors(hm.color, hm.height, mask, next(nets[roles[0]].parameters()).device)
     out = {}
     for role in roles:
         net = nets[role]
         net.eval()
-        out[role] = net(c, d, m, None)[0].numpy()
+        out[role] = net(c, d, m, None)[0].cpu().numpy()
     return out
 
 

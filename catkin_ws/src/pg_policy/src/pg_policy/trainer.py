@@ -21,7 +21,7 @@ from pg_policy.geometry import load
 from pg_policy.heightmap import Heightmap
 from pg_policy.replay import ReplayBuffer, Transition
 from pg_policy.stages import STAGES, choose_primitive, epsilon, explore_action
-from pg_policy.train_config import TrainConfig, scene_list
+from pg_policy.train_config import TrainConfig, check_device, scene_list
 
 # explored: 0 = greedy, 1 = uniformly random, 2 = the heuristic's push or free grasp (guided exploration)
 LOG_FIELDS = ["iteration", "episode", "primitive", "rotation", "row", "col", "q", "explored", "reward", "grasped",
@@ -38,11 +38,13 @@ class Trainer:
         torch.manual_seed(cfg.seed)
         self.cfg = cfg
         self.scenes_ = scene_list(cfg.scene)  # training scene families, one per episode in turn
+        check_device(cfg.device)
+        self.device = torch.device(cfg.device)
         self.geo = load()
         self.stage = STAGES[cfg.stage]
         self.dir = Path(cfg.out) / cfg.stage
         self.dir.mkdir(parents=True, exist_ok=True)
-        self.nets = {role: qtensor.build(cfg, role) for role in ("grasp", "push")}
+        self.nets = {role: qtensor.build(cfg, role).to(self.device) for role in ("grasp", "push")}
         self.opts = {role: torch.optim.Adam(net.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
                      for role, net in self.nets.items()}
         shape = (self.geo.heightmap.rows, self.geo.heightmap.cols)
@@ -108,7 +110,7 @@ class Trainer:
     def save(self) -> Path:
         for buf in self.replay.values():
             buf.flush()
-        ck = {"nets": {r: n.state_dict() for r, n in self.nets.items()},
+        ck = {"nets": {r: {k: v.cpu() for k, v in n.state_dict().items()} for r, n in self.nets.items()},
               "opts": {r: o.state_dict() for r, o in self.opts.items()},
               "iteration": self.iteration, "episode": self.episode, "rng": self.rng.bit_generator.state,
               "config": {k: str(v) for k, v in vars(self.cfg).items()}, "stage": self.stage.name}
@@ -136,19 +138,21 @@ class Trainer:
         half = self.cfg.rotations // 2
         items = [(k, t, r) for k, t in enumerate(batch)
                  for r in ([t.rotation, (t.rotation + half) % self.cfg.rotations] if role == "grasp" else [t.rotation])]
-        cols = [qtensor.tensors(t.color, t.height, t.mask) for _, t, _ in items]
+        cols = [qtensor.tensors(t.color, t.height, t.mask, self.device) for _, t, _ in items]
         color, depth, mask = (torch.cat([c[i] for c in cols]) for i in range(3))
         net.train()
-        q = net.forward_indexed(color, depth, mask, torch.tensor([r for _, _, r in items], dtype=torch.int64))
+        rots = torch.tensor([r for _, _, r in items], dtype=torch.int64, device=self.device)
+        q = net.forward_indexed(color, depth, mask, rots)
         pred = torch.stack([q[i, t.row, t.col] for i, (_, t, _) in enumerate(items)])
-        target = torch.tensor([labels[k] for k, _, _ in items], dtype=pred.dtype)
+        target = torch.tensor([labels[k] for k, _, _ in items], dtype=pred.dtype, device=self.device)
         loss = torch.nn.functional.smooth_l1_loss(pred, target, reduction="mean")
         opt.zero_grad()
         loss.backward()
         opt.step()
         first = {}
+        values = pred.detach().cpu().tolist()
         for i, (k, _, _) in enumerate(items):
-            first.setdefault(k, abs(float(pred[i].detach()) - labels[k]))
+            first.setdefault(k, abs(values[i] - labels[k]))
         return float(loss.detach()), [first[k] for k in range(len(batch))]
 
     # -- acting ------------------------------------------------------------------------------------------------
