@@ -195,3 +195,10 @@ def test_cli_heuristic_on_packed_case01(tmp_path, capsys):
     row = md[head + 2].split("|")
     assert row[1].strip() == "packed/case01" and all("±" in cell for cell in row[2:4])
     assert "| packed/case01 |" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(("workers", "cpus", "threads"), [(2, 2, 1), (16, 16, 1), (4, 16, 4), (3, 2, 1), (0, 8, 8)])
+def test_eval_workers_share_the_cpus_out(workers, cpus, threads):
+    from pg_policy.eval_cli import worker_threads
+
+    assert worker_threads(workers, cpus) == threads

@@ -76,9 +76,20 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 _WORKER: dict[str, Any] = {}
 
 
-def _worker_init(policy: str, opts: Any) -> None:
+def worker_threads(workers: int, cpus: int | None = None) -> int:
+    """CPU threads for torch and OpenCV in each of `workers` processes: the machine's CPUs shared out, at least 1.
+    Without it every worker takes all CPUs and they slow each other down (seen on a 16-core GPU machine)."""
+    return max(1, (cpus or os.cpu_count() or 1) // max(1, workers))
+
+
+def _worker_init(policy: str, opts: Any, threads: int) -> None:
+    import cv2
+    import torch
+
     from pg_policy.policies import make_policy
 
+    torch.set_num_threads(threads)
+    cv2.setNumThreads(threads)
     _WORKER["policy"] = make_policy(policy, opts)
 
 
@@ -105,7 +116,7 @@ def run_trials(policy: str, opts: Any, plan: Any, workers: int, on_trial: Any = 
     jobs = plan.jobs()
     results: list[Any] = [None] * len(jobs)
     with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"), initializer=_worker_init,
-                             initargs=(policy, opts)) as pool:
+                             initargs=(policy, opts, worker_threads(workers))) as pool:
         futures = [pool.submit(_worker_trial, i, name, seed, plan) for i, (name, seed) in enumerate(jobs)]
         for fut in as_completed(futures):
             i, rec = fut.result()
