@@ -11,6 +11,10 @@
 #      (scripts/eval_protocol.sh, PG_EVAL_TRIALS trials per scene, PG_WORKERS workers).
 # Everything lands in OUT: offline/, alternate/ (log.csv, curves.png), models_*/ (not to be committed: 2 x 57 MB),
 # eval_warm/ and eval_final/ (results per family), steps.log (one line per step with its wall time).
+# To carry the sdist to the lent machine (80 MB as published), drop the meshes the project does not use:
+#   pip download --no-deps --no-binary=:all: pybullet==3.2.7; tar xzf pybullet-3.2.7.tar.gz
+#   find pybullet-3.2.7/examples/pybullet/gym/pybullet_data -type f ! -name "*.py" -delete
+#   rm -rf pybullet-3.2.7/examples/pybullet/gym/pybullet_{envs,examples}; tar cJf SDIST pybullet-3.2.7  # 3.4 MB
 # usage: scripts/gpu_densenet121.sh SDIST EXP OUT
 # env: PG_PYTHON (default python3), PG_BACKBONE (default densenet121), PG_DEVICE (default cuda),
 #      PG_OFFLINE_MIN (4), PG_TRAIN_MIN (8), PG_EVAL_TRIALS (30), PG_WORKERS (16), PG_WARM_WORKERS (10),
