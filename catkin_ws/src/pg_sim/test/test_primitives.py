@@ -116,3 +116,49 @@ def test_a_target_lifted_with_a_neighbour_counts_as_grasped_and_both_leave(world
     res = PrimitiveExecutor(world).grasp(0.0, 0.0, grasp_z(height, r, c, world.geometry.primitives), 0.0)
     assert res.grasped and res.target_grasped and res.grasped_object == target, res
     assert below not in world.objects and target not in world.objects
+
+
+def _record_driver(world, monkeypatch, events):
+    """Wraps every arm driver's gripper() and follow() (the real ones still run) to log ("open"/"close", m) and
+    ("move", final joints) in call order."""
+    for drv in world.arms.values():
+        def gripper(opening, *a, _real=drv.gripper, **k):
+            events.append(("open" if opening > 0 else "close", opening))
+            return _real(opening, *a, **k)
+
+        def follow(waypoints, *a, _real=drv.follow, **k):
+            events.append(("move", np.asarray(waypoints[-1], dtype=float)))
+            return _real(waypoints, *a, **k)
+
+        monkeypatch.setattr(drv, "gripper", gripper)
+        monkeypatch.setattr(drv, "follow", follow)
+
+
+def _home_index(world, events):
+    homes = [np.asarray(a.home) for a in world.geometry.robot.arms.values()]
+    return next(i for i, (kind, v) in enumerate(events)
+                if kind == "move" and any(np.allclose(v, h, atol=1e-6) for h in homes))
+
+
+def test_a_failed_grasp_releases_at_the_lift_pose_before_going_home(world, monkeypatch):
+    # what a closed jaw snags (an edge, a thin part) falls back at the grasp site instead of travelling home with it
+    _one_cube(world, 0.15, 0.15, 0.0)
+    events = []
+    _record_driver(world, monkeypatch, events)
+    res = PrimitiveExecutor(world).grasp(-0.1, -0.1, 0.02, 0.0)
+    assert res.executed and not res.grasped
+    close = events.index(("close", 0.0))
+    opens = [i for i, (kind, _) in enumerate(events) if kind == "open" and i > close]
+    assert opens and opens[0] < _home_index(world, events), [e[0] for e in events]
+
+
+def test_a_successful_grasp_keeps_the_jaw_closed_until_home(world, monkeypatch):
+    _one_cube(world, 0.0, 0.0, 0.0)
+    events = []
+    _record_driver(world, monkeypatch, events)
+    height, r, c = _heights(world, 0.0, 0.0)
+    res = PrimitiveExecutor(world).grasp(0.0, 0.0, grasp_z(height, r, c, world.geometry.primitives), 0.0)
+    assert res.grasped, res.message
+    close = events.index(("close", 0.0))
+    opens = [i for i, (kind, _) in enumerate(events) if kind == "open" and i > close]
+    assert opens and opens[0] > _home_index(world, events)

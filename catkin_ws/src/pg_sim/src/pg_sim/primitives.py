@@ -146,6 +146,8 @@ class PrimitiveExecutor:
                 lifted = self._held_objects(driver) if grasped else []
                 held = self._credited(lifted)
                 message = "grasped" if grasped else "nothing grasped: fingers closed"
+                if not grasped:  # release at the lift pose: what the closed jaw snagged falls back where it was
+                    driver.gripper(g.max_opening)
             else:
                 pushing, after = plan.cartesian[1:], plan.lengths[1:]
                 driver.follow(pushing[0], [length / self.prims_.push_speed for length in after[0]])
