@@ -184,7 +184,11 @@ void PrimitiveController::execute(const pg_msgs::ExecutePrimitive::Request& req,
     } else {
       const std::optional<double> now = opening(plan.arm);
       res.grasped = now && *now > config_->gripper().closed_threshold;
-      if (!res.grasped) outcome = "nothing grasped: fingers closed";
+      if (!res.grasped) {
+        outcome = "nothing grasped: fingers closed";
+        // release at the lift pose: what the closed jaw snagged falls back at the grasp site (as pg_sim)
+        error = runGripper(plan.arm, config_->gripper().max_opening, true, limit);
+      }
     }
     if (!error.empty()) {
       error = "'" + step.name + "' failed: " + error;

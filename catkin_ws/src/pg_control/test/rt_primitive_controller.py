@@ -203,11 +203,17 @@ class TestPrimitiveController(unittest.TestCase):
 
     def test_2_empty_grasp_and_push(self) -> None:
         self.fake.object_width = None
+        n_traj, n_grip = self.fake.received()
         res, _ = self.call(request(ExecutePrimitiveRequest.GRASP, -0.1, 0.1, 0.02, yaw=1.0))
         self.assertTrue(res.success, res.message)
         self.assertFalse(res.grasped)
         self.assertEqual(res.arm, "left")
         self.assertIn("nothing grasped", res.message)
+        with self.fake.lock:
+            n_moves = len(self.fake.trajectories) - n_traj
+            grips = [round(v, 4) for _, v in self.fake.gripper_commands[n_grip:]]
+        # gripper: open, close, open at the lift pose (drops what the jaw snagged there), open again at home
+        self.assertEqual((n_moves, grips), (4, [0.085, 0.0, 0.085, 0.085]))
         res, _ = self.call(request(ExecutePrimitiveRequest.PUSH, 0.0, 0.1, 0.02, yaw=math.pi / 2, arm="right"))
         self.assertTrue(res.success, res.message)
         self.assertEqual((res.arm, res.message), ("right", "pushed"))
