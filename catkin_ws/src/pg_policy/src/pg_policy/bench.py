@@ -271,10 +271,10 @@ def run(variants: Sequence[str] = VARIANTS, runs: int = 20, threads: int = 2, sc
         raise ValueError(f"unknown variants {bad}; known: {sorted(BACKBONES)}")
     if runs < 1 or threads < 1:
         raise ValueError("runs and threads must be >= 1")
-    dev = torch.device(device)
+    from pg_policy.device import check_device
+
+    dev = check_device(device)
     if dev.type == "cuda":
-        if not torch.cuda.is_available():
-            raise ValueError(f"device {device}: torch sees no CUDA device")
         torch.backends.cudnn.allow_tf32 = False
         torch.backends.cuda.matmul.allow_tf32 = False
     torch.set_num_threads(threads)

@@ -131,11 +131,13 @@ def _run(args: argparse.Namespace) -> int:
 
     from tqdm import tqdm
 
+    from pg_policy.device import check_device
     from pg_policy.eval_report import git_commit, write_results
     from pg_policy.evaluate import EvalPlan, Limits, check_seed, expand_scenes
     from pg_policy.policies import PolicyOptions, make_policy
 
     check_seed(args.seed, args.allow_train_seeds)
+    check_device(args.device)
     if args.trials < 1:
         raise ValueError(f"--trials must be >= 1, got {args.trials}")
     if args.jitter_xy < 0 or args.jitter_yaw < 0:

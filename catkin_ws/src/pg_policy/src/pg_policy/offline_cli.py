@@ -45,12 +45,10 @@ def _pack(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace) -> int:
-    import torch
-
+    from pg_policy.device import check_device
     from pg_policy.offline import OfflineConfig, OfflineTrainer
 
-    if torch.device(args.device).type == "cuda" and not torch.cuda.is_available():
-        raise ValueError(f"device {args.device}: torch sees no CUDA device")
+    check_device(args.device)
     if args.steps < 1 or args.batch < 1:
         raise ValueError("--steps and --batch must be >= 1")
     cfg = OfflineConfig(data=args.data, out=args.out, backbone=args.backbone, goal=args.goal,

@@ -73,22 +73,10 @@ def from_args(args: argparse.Namespace) -> TrainConfig:
     if not 0 <= cfg.seed < TRAIN_SEED_LIMIT:
         raise ValueError(f"training seed {cfg.seed} must be in [0, {TRAIN_SEED_LIMIT}) (evaluation seeds are above)")
     scene_list(cfg.scene)
+    from pg_policy.device import check_device
+
     check_device(cfg.device)
     return cfg
-
-
-def check_device(name: str) -> None:
-    """Raises ValueError for a device string torch does not parse, or a CUDA device this machine does not have."""
-    import torch
-
-    try:
-        dev = torch.device(name)
-    except RuntimeError as e:
-        raise ValueError(f"--device {name!r}: not a torch device ({e})") from e
-    if dev.type == "cuda" and not (torch.cuda.is_available() and (dev.index or 0) < torch.cuda.device_count()):
-        raise ValueError(f"--device {name!r}: torch sees {torch.cuda.device_count()} CUDA device(s) on this machine")
-    if dev.type not in ("cpu", "cuda"):
-        raise ValueError(f"--device {name!r}: only cpu and cuda are supported")
 
 
 def scene_list(spec: str) -> list[str]:

@@ -17,11 +17,12 @@ import numpy as np
 import torch
 
 from pg_policy import qtensor
+from pg_policy.device import check_device
 from pg_policy.geometry import load
 from pg_policy.heightmap import Heightmap
 from pg_policy.replay import ReplayBuffer, Transition
 from pg_policy.stages import STAGES, choose_primitive, epsilon, explore_action
-from pg_policy.train_config import TrainConfig, check_device, scene_list
+from pg_policy.train_config import TrainConfig, scene_list
 
 # explored: 0 = greedy, 1 = uniformly random, 2 = the heuristic's push or free grasp (guided exploration)
 LOG_FIELDS = ["iteration", "episode", "primitive", "rotation", "row", "col", "q", "explored", "reward", "grasped",
@@ -38,8 +39,7 @@ class Trainer:
         torch.manual_seed(cfg.seed)
         self.cfg = cfg
         self.scenes_ = scene_list(cfg.scene)  # training scene families, one per episode in turn
-        check_device(cfg.device)
-        self.device = torch.device(cfg.device)
+        self.device = check_device(cfg.device)
         self.geo = load()
         self.stage = STAGES[cfg.stage]
         self.dir = Path(cfg.out) / cfg.stage
