@@ -209,9 +209,15 @@ class TestPrimitiveController(unittest.TestCase):
         self.assertFalse(res.grasped)
         self.assertEqual(res.arm, "left")
         self.assertIn("nothing grasped", res.message)
-        with self.fake.lock:
-            n_moves = len(self.fake.trajectories) - n_traj
-            grips = [round(v, 4) for _, v in self.fake.gripper_commands[n_grip:]]
+        # the last open is already reached when published, so the reply can overtake its delivery: wait up to 2 s
+        deadline = time.monotonic() + 2.0
+        while time.monotonic() < deadline:
+            with self.fake.lock:
+                n_moves = len(self.fake.trajectories) - n_traj
+                grips = [round(v, 4) for _, v in self.fake.gripper_commands[n_grip:]]
+            if len(grips) >= 4:
+                break
+            time.sleep(0.02)
         # gripper: open, close, open at the lift pose (drops what the jaw snagged there), open again at home
         self.assertEqual((n_moves, grips), (4, [0.085, 0.0, 0.085, 0.085]))
         res, _ = self.call(request(ExecutePrimitiveRequest.PUSH, 0.0, 0.1, 0.02, yaw=math.pi / 2, arm="right"))
