@@ -49,3 +49,12 @@ def test_cli_writes_markdown_and_png_and_rejects_bad_input(two_policies, tmp_pat
     assert main(["compare", f"good={two_policies / 'good'}", "--out", str(out), "--check", "other"]) == 2
     with pytest.raises(ValueError, match="not in the protocol"):
         family_of("kitchen/case1")
+
+
+def test_check_adds_the_paired_comparison_on_common_trials(two_policies):
+    good, weak = load_policy("good", two_policies / "good"), load_policy("weak", two_policies / "weak")
+    text = markdown([good, weak], check="good")
+    assert "`good` paired with each other policy" in text
+    # 4 common packed trials: weak failed two that good completed; GS per trial 1 - 0.5 twice, 1 - 0 twice
+    assert "| packed | weak | 4 | 2 | 0 | 0.5 | 75.0 ± 14.4 |" in text
+    assert "| random | weak |" not in text  # no common random trials

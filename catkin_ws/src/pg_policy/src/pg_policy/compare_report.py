@@ -16,6 +16,7 @@ from pathlib import Path
 
 from pg_policy.eval_report import fmt
 from pg_policy.evaluate import Stat, TrialRecord, scene_metrics
+from pg_policy.paired import paired
 
 FAMILIES = ("packed", "household", "random")
 # DESIGN.md section 8 (the paper's Tables I-III, "Ours / Xu et al." as the design quotes them): only family ranges
@@ -120,6 +121,20 @@ def target_check(model: PolicyResults, baselines: Sequence[PolicyResults]) -> li
     return [head, ""] + (lines or ["- every target met"])
 
 
+def paired_table(model: PolicyResults, baselines: Sequence[PolicyResults]) -> list[str]:
+    """`model` against each baseline on their common trials per family (pg_policy.paired): discordant completions,
+    the exact sign test's p, and the mean per-trial GS difference in points."""
+    lines = [f"| family | {model.name} vs | common trials | only {model.name} completed | only the other completed "
+             f"| p (sign test) | GS difference (points) |", "|---|---|---|---|---|---|---|"]
+    for fam in FAMILIES:
+        for b in baselines:
+            r = paired(model.family_trials(fam), b.family_trials(fam))
+            if r.n:
+                lines.append(f"| {fam} | {b.name} | {r.n} | {r.a_only} | {r.b_only} | {r.p_c:.3g} | "
+                             f"{fmt(r.gs_diff, 100)} |")
+    return lines
+
+
 def markdown(policies: Sequence[PolicyResults], check: str | None = None) -> str:
     out = ["| Policy | trials per scene |", "|---|---|"]
     out += [f"| {p.name} | {', '.join(sorted({str(len(ts)) for ts in p.trials.values()}))} |" for p in policies]
@@ -131,7 +146,10 @@ def markdown(policies: Sequence[PolicyResults], check: str | None = None) -> str
         model = next((p for p in policies if p.name == check), None)
         if model is None:
             raise ValueError(f"--check {check}: no such policy among {[p.name for p in policies]}")
-        out += [f"### Targets for `{check}`", ""] + target_check(model, [p for p in policies if p is not model])
+        others = [p for p in policies if p is not model]
+        out += [f"### Targets for `{check}`", ""] + target_check(model, others)
+        out += ["", f"### `{check}` paired with each other policy (same scene, same seed)", ""]
+        out += paired_table(model, others)
     return "\n".join(out) + "\n"
 
 
