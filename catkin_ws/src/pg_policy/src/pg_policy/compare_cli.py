@@ -22,7 +22,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="a column name and the folder holding that policy's results.json files")
     p.add_argument("--out", type=Path, required=True, help="markdown file to write (the PNG goes beside it)")
     p.add_argument("--check", default=None, metavar="NAME",
-                   help="list where policy NAME misses the targets (per-scene C/GS, beating the others)")
+                   help="list where policy NAME misses the targets (per-scene C/GS, beating the others) and compare it "
+                        "with each other policy trial by trial (same scene and seed; pg_policy.paired)")
     p.set_defaults(run=_run)
 
 
