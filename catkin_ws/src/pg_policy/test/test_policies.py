@@ -194,6 +194,19 @@ def test_learned_policy_does_not_repeat_a_failed_grasp(model_dir):
                                                                                    first.col)] * 2
 
 
+def test_learned_policy_does_not_repeat_a_futile_push(model_dir):
+    obs = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (0.08, 0.02, CUBE, CUBE, "blue")])
+    pol = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=1e9, futile_push_radius_m=0.01))
+    first, second = pol.act(obs), pol.act(obs)  # always pushes, on an unchanged scene
+    assert first.primitive == second.primitive == "push" and len(pol.futile.pushes) == 1
+    assert (first.rotation, first.row, first.col) != (second.rotation, second.row, second.col)
+    pol.reset(0)
+    assert pol.act(obs) == first and pol.futile.pushes == []
+    off = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=1e9))  # default: off
+    assert [(d.rotation, d.row, d.col) for d in (off.act(obs), off.act(obs))] == [(first.rotation, first.row,
+                                                                                   first.col)] * 2
+
+
 def test_shipped_models_resolve_by_folder_name():
     from pg_policy.policies import SHIPPED_MODELS
 

@@ -62,6 +62,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ev.add_argument("--failed-grasp-radius", type=float, default=None, metavar="M",
                     help="learned: a failed grasp's closing axis is not retried within M metres in the same trial "
                          "(default: pg_policy.failed_grasps.DEFAULT_RADIUS_M = 0.01; 0 = off)")
+    ev.add_argument("--futile-push-radius", type=float, default=None, metavar="M",
+                    help="learned: a push that changed nothing around the target is not retried in the same "
+                         "direction within M metres in the same trial (default: "
+                         "pg_policy.futile_pushes.DEFAULT_RADIUS_M = 0 = off; 0.01 = 1 cm)")
     ev.add_argument("--grasp-filter", default=None, metavar="SPEC",
                     help="grasp-only/learned: filter Q_g before the decision (pg_policy.grasp_filter: none, sym, "
                          "min3, mean5, sym+min3, ...) (default: the model metadata's, else none)")
@@ -145,7 +149,8 @@ def _run(args: argparse.Namespace) -> int:
     scenes = expand_scenes(args.scenes)
     opts = PolicyOptions(models=tuple(args.model), seed=args.seed, device=args.device,
                          grasp_threshold=args.grasp_threshold, push_budget=args.push_budget,
-                         failed_grasp_radius_m=args.failed_grasp_radius, grasp_filter=args.grasp_filter)
+                         failed_grasp_radius_m=args.failed_grasp_radius,
+                         futile_push_radius_m=args.futile_push_radius, grasp_filter=args.grasp_filter)
     policy = make_policy(args.policy, opts)  # validates the name and the model files before any simulation
     paths = getattr(policy, "model_paths", None)
     if paths:  # workers and the record get the resolved files
@@ -162,6 +167,7 @@ def _run(args: argparse.Namespace) -> int:
         "max_actions": args.max_actions, "max_failed_grasps": args.max_failed_grasps,
         "jitter_xy_m": args.jitter_xy, "jitter_yaw_deg": args.jitter_yaw, "grasp_threshold": args.grasp_threshold,
         "push_budget": args.push_budget, "failed_grasp_radius_m": args.failed_grasp_radius,
+        "futile_push_radius_m": args.futile_push_radius,
         "grasp_filter": None if grasp_filter is None else str(grasp_filter),
         "git_commit": git_commit(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "workers": args.workers,
         "host_cpus": os.cpu_count(),

@@ -37,15 +37,24 @@ class FailedGrasps:
         """A float copy of the (R, H, W) grasp Q map with -inf at every remembered grasp's closing axis within
         `radius_m` of its (x, y); the input is returned unchanged (not copied) when nothing is remembered or the
         radius is 0."""
-        if not self.grasps or self.radius_m == 0:
-            return q_grasp
-        q = np.array(q_grasp, dtype=np.float64, copy=True)
-        rows, cols = q.shape[1:]
-        xs = hm.bounds[0, 0] + (np.arange(cols) + 0.5) * hm.resolution
-        ys = hm.bounds[1, 0] + (np.arange(rows) + 0.5) * hm.resolution
         half = self.rotations // 2
-        for r, x, y in self.grasps:
-            near = (ys[:, None] - y) ** 2 + (xs[None, :] - x) ** 2 <= self.radius_m**2
-            for rr in (r % half, r % half + half):
-                q[rr][near] = -np.inf
+        axes = [((r % half, r % half + half), x, y) for r, x, y in self.grasps]
+        return suppress_near(q_grasp, hm, axes, self.radius_m)
+
+
+def suppress_near(q: np.ndarray, hm: Heightmap, actions: list[tuple[tuple[int, ...], float, float]],
+                  radius_m: float) -> np.ndarray:
+    """A float copy of the (R, H, W) Q map `q` over `hm`'s cells with -inf, for each (rotation indices, x, y) of
+    `actions` (x, y in `world` metres), at those rotations within `radius_m` of (x, y); `q` itself (not copied)
+    when `actions` is empty or the radius is 0."""
+    if not actions or radius_m == 0:
         return q
+    out = np.array(q, dtype=np.float64, copy=True)
+    rows, cols = out.shape[1:]
+    xs = hm.bounds[0, 0] + (np.arange(cols) + 0.5) * hm.resolution
+    ys = hm.bounds[1, 0] + (np.arange(rows) + 0.5) * hm.resolution
+    for rotations, x, y in actions:
+        near = (ys[:, None] - y) ** 2 + (xs[None, :] - x) ** 2 <= radius_m**2
+        for r in rotations:
+            out[r][near] = -np.inf
+    return out

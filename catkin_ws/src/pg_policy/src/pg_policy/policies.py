@@ -30,6 +30,8 @@ import numpy as np
 
 from pg_policy.decision import Decision, action_pose
 from pg_policy.failed_grasps import DEFAULT_RADIUS_M, FailedGrasps
+from pg_policy.futile_pushes import DEFAULT_RADIUS_M as FUTILE_RADIUS_M
+from pg_policy.futile_pushes import FutilePushes
 from pg_policy.geometry import Geometry, load
 from pg_policy.heightmap import Heightmap
 
@@ -60,7 +62,8 @@ class PolicyOptions:
     model metadata's threshold (learned); push_budget: overrides the metadata's push budget (learned: after this
     many pushes in a row it grasps even below the threshold; 0 = no budget); failed_grasp_radius_m (learned): a
     failed grasp's closing axis is not retried within this radius in the same trial (pg_policy.failed_grasps;
-    None = its DEFAULT_RADIUS_M, 0 = off); grasp_filter (grasp-only, learned): a pg_policy.grasp_filter spec
+    None = its DEFAULT_RADIUS_M, 0 = off); futile_push_radius_m (learned): likewise for a push that changed nothing
+    around the target (pg_policy.futile_pushes); grasp_filter (grasp-only, learned): a pg_policy.grasp_filter spec
     applied to Q_g before the decision (None = the model metadata's thresholds.grasp_filter, else "none")."""
 
     models: tuple[Path, ...] = ()
@@ -70,6 +73,7 @@ class PolicyOptions:
     grasp_threshold: float | None = None
     push_budget: int | None = None
     failed_grasp_radius_m: float | None = None
+    futile_push_radius_m: float | None = None
     grasp_filter: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
@@ -267,8 +271,9 @@ class LearnedPolicy(_Base):
     """Grasp and push nets + pg_policy.decision.decide (grasp if masked max Q_g > threshold, else push); with a push
     budget B > 0 (model metadata thresholds.push_budget or PolicyOptions.push_budget) it grasps after B pushes in a
     row whatever Q_g says, as the paper's push stage does in training; a grasp that failed is not retried at the same
-    place and closing axis within the trial (pg_policy.failed_grasps); Q_g passes through the grasp filter
-    (`grasp_filter_of`, pg_policy.grasp_filter) before the decision. All three are deviations at test time: see
+    place and closing axis within the trial (pg_policy.failed_grasps), nor a push that changed nothing around the
+    target at the same place and direction (pg_policy.futile_pushes); Q_g passes through the grasp filter
+    (`grasp_filter_of`, pg_policy.grasp_filter) before the decision. All four are deviations at test time: see
     docs/ARCHITECTURE.md."""
 
     name = "learned"
@@ -288,6 +293,9 @@ class LearnedPolicy(_Base):
         self.pushes_in_row = 0
         radius = DEFAULT_RADIUS_M if opts.failed_grasp_radius_m is None else opts.failed_grasp_radius_m
         self.failed = FailedGrasps(self.rotations, radius)
+        radius = FUTILE_RADIUS_M if opts.futile_push_radius_m is None else opts.futile_push_radius_m
+        self.futile = FutilePushes(self.rotations, radius)
+        self.last_seen: tuple[Heightmap, np.ndarray] | None = None  # the heightmap and mask the last decision used
         self.grasp_filter = grasp_filter_of(opts, self.nets.metadata["grasp"])
         self.last: Decision | None = None
 
@@ -295,7 +303,8 @@ class LearnedPolicy(_Base):
         super().reset(seed)
         self.pushes_in_row = 0
         self.failed.clear()
-        self.last = None
+        self.futile.clear()
+        self.last, self.last_seen = None, None
 
     def act(self, obs: Any) -> Decision:
         from pg_policy.decision import decide
@@ -304,13 +313,17 @@ class LearnedPolicy(_Base):
         mask = _goal_or_all(obs)
         if self.last is not None and self.last.primitive == "grasp":  # asked again: that grasp missed the target
             self.failed.add(self.last.rotation, self.last.x, self.last.y)
+        elif self.last is not None and self.last_seen is not None:  # the last push: did it change anything?
+            before, target_before = self.last_seen
+            self.futile.observe(self.last.rotation, self.last.x, self.last.y, before, hm, target_before)
         q = self.nets.q_maps(hm, mask)
         self._q = {"grasp": self.grasp_filter.apply(q["grasp"]), "push": q["push"]}
         spent = 0 < self.push_budget <= self.pushes_in_row
         q_grasp = self.failed.suppress(self._q["grasp"], hm)
-        d = decide(q_grasp, self._q["push"], mask, hm, self.prims, -math.inf if spent else self.threshold)
+        q_push = self.futile.suppress(self._q["push"], hm)
+        d = decide(q_grasp, q_push, mask, hm, self.prims, -math.inf if spent else self.threshold)
         self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0
-        self.last = d
+        self.last, self.last_seen = d, (hm, mask)
         return d
 
 

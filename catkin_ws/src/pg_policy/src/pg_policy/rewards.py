@@ -29,6 +29,7 @@ CHANGE_RADIUS_M = 0.01  # growth of the target hull for change detection (author
 CHANGE_DEPTH_M = 0.01  # a cell changed when its height differs by at least this (m)
 CHANGE_MAX_M = 0.3  # larger height differences are outliers and ignored (m)
 CHANGE_MIN_CELLS = 50  # at least this many changed cells make a change
+PUSH_CHANGE_RADIUS_M = 0.05  # the push reward watches the target hull grown by this (m) for a change
 OCC_RADIUS_M = 0.02  # width of the ring around the target for the occupancy ratio (authors: 10 dilations)
 OCC_HEIGHT_M = 0.02  # a ring cell is occupied when its height is at least this (m)
 

@@ -246,7 +246,7 @@ class Trainer:
             self.ep_["pushes"] += 1
             nmask = target_mask(nxt.heightmap.color, nxt.heightmap.valid, obs.target)
             q_after = qtensor.q_maps(self.nets, nxt.heightmap, nmask, ("grasp",))
-            changed = rewards.scene_changed(hm, nxt.heightmap, goal, radius_m=0.05)
+            changed = rewards.scene_changed(hm, nxt.heightmap, goal, radius_m=rewards.PUSH_CHANGE_RADIUS_M)
             occ = [rewards.occupancy_ratio(h, m, 0.05, 0.01) for h, m in ((hm, goal), (nxt.heightmap, nmask))]
             reward = rewards.push_reward(gmax, qtensor.masked_max(q_after["grasp"], nmask), changed, occ[0], occ[1])
             success = reward > 0
