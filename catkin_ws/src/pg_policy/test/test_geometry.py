@@ -23,3 +23,23 @@ def test_missing_key_is_named(tmp_path):
 def test_workspace_contains():
     ws = geometry.load().workspace
     assert ws.contains([0, 0, 0.1]) and not ws.contains([0.3, 0, 0.1]) and not ws.contains([0, 0, -0.01])
+
+
+def _write(tmp_path, raw):
+    path = tmp_path / "ws.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    return path
+
+
+def test_grasp_stop_force_is_optional_and_off_when_absent(tmp_path):
+    raw = yaml.safe_load(geometry.DEFAULT_CONFIG.read_text())
+    del raw["primitives"]["grasp_stop_force"]
+    assert geometry.load(_write(tmp_path, raw)).primitives.grasp_stop_force == 0.0
+
+
+@pytest.mark.parametrize("bad", [-1.0, "ten"])
+def test_grasp_stop_force_must_be_a_non_negative_number(tmp_path, bad):
+    raw = yaml.safe_load(geometry.DEFAULT_CONFIG.read_text())
+    raw["primitives"]["grasp_stop_force"] = bad
+    with pytest.raises(ValueError, match="grasp_stop_force"):
+        geometry.load(_write(tmp_path, raw))

@@ -1,5 +1,7 @@
 """Grasp and push performed by the simulated arms: success rates, displacement, refusals (DESIGN.md section 4)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -162,3 +164,34 @@ def test_a_successful_grasp_keeps_the_jaw_closed_until_home(world, monkeypatch):
     close = events.index(("close", 0.0))
     opens = [i for i, (kind, _) in enumerate(events) if kind == "open" and i > close]
     assert opens and opens[0] > _home_index(world, events)
+
+
+def _with_stop_force(geometry, newtons):
+    return replace(geometry, primitives=replace(geometry.primitives, grasp_stop_force=newtons))
+
+
+@pytest.mark.parametrize("newtons", [0.0, 10.0])
+def test_guarded_descent_stops_a_finger_on_an_object_instead_of_throwing_it(world, newtons):
+    # One finger comes down on the cube's top face (jaw centre 4.5 cm beside the cube's, closing along x). Driven to
+    # the planned depth, the finger presses into the cube and the contact solver throws it several cm; a guarded
+    # descent stops on contact, the jaw closes above it and the cube stays within a few mm.
+    with World(_with_stop_force(world.geometry, newtons)) as guarded:
+        body = _one_cube(guarded, 0.0, 0.0, 0.0)
+        height, r, c = _heights(guarded, 0.0, 0.0)
+        z = grasp_z(height, r, c, guarded.geometry.primitives)
+        res = PrimitiveExecutor(guarded).grasp(-0.045, 0.0, z, 0.0)
+        moved = float(np.linalg.norm(np.array(guarded.object_poses()[body][:2])))
+    assert res.executed and not res.grasped
+    if newtons > 0:
+        assert moved < 0.015, moved
+    else:
+        assert moved > 0.025, moved
+
+
+def test_guarded_descent_still_grasps_a_cube_between_the_fingers(world):
+    with World(_with_stop_force(world.geometry, 10.0)) as guarded:
+        body = _one_cube(guarded, 0.05, -0.05, 0.3)
+        height, r, c = _heights(guarded, 0.05, -0.05)
+        res = PrimitiveExecutor(guarded).grasp(0.05, -0.05, grasp_z(height, r, c, guarded.geometry.primitives),
+                                               round(0.3 / STEP) * STEP)
+    assert res.grasped and res.grasped_object == body, res.message

@@ -69,6 +69,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ev.add_argument("--grasp-filter", default=None, metavar="SPEC",
                     help="grasp-only/learned: filter Q_g before the decision (pg_policy.grasp_filter: none, sym, "
                          "min3, mean5, sym+min3, ...) (default: the model metadata's, else none)")
+    ev.add_argument("--grasp-check", default=None, choices=("none", "jaw"),
+                    help="learned: re-rank Q_g's best cells by the heuristic's jaw-footprint test while the target "
+                         "is visible (pg_policy.grasp_check; default none)")
     ev.add_argument("--device", default="cpu", help="torch device of learned policies (default cpu)")
     ev.add_argument("--workers", type=int, default=1,
                     help="parallel simulator processes (default 1); results do not depend on it")
@@ -131,13 +134,14 @@ def run_trials(policy: str, opts: Any, plan: Any, workers: int, on_trial: Any = 
 
 
 def _run(args: argparse.Namespace) -> int:
-    from dataclasses import replace
+    from dataclasses import asdict, replace
 
     from tqdm import tqdm
 
     from pg_policy.device import check_device
     from pg_policy.eval_report import git_commit, write_results
     from pg_policy.evaluate import EvalPlan, Limits, check_seed, expand_scenes
+    from pg_policy.geometry import load as load_geometry
     from pg_policy.policies import PolicyOptions, make_policy
 
     check_seed(args.seed, args.allow_train_seeds)
@@ -147,10 +151,12 @@ def _run(args: argparse.Namespace) -> int:
     if args.jitter_xy < 0 or args.jitter_yaw < 0:
         raise ValueError("--jitter-xy and --jitter-yaw must be >= 0")
     scenes = expand_scenes(args.scenes)
+    geometry = load_geometry()  # $PG_WORKSPACE_CONFIG or the package's; the simulator workers load the same file
     opts = PolicyOptions(models=tuple(args.model), seed=args.seed, device=args.device,
                          grasp_threshold=args.grasp_threshold, push_budget=args.push_budget,
                          failed_grasp_radius_m=args.failed_grasp_radius,
-                         futile_push_radius_m=args.futile_push_radius, grasp_filter=args.grasp_filter)
+                         futile_push_radius_m=args.futile_push_radius, grasp_filter=args.grasp_filter,
+                         grasp_check=args.grasp_check)
     policy = make_policy(args.policy, opts)  # validates the name and the model files before any simulation
     paths = getattr(policy, "model_paths", None)
     if paths:  # workers and the record get the resolved files
@@ -167,8 +173,9 @@ def _run(args: argparse.Namespace) -> int:
         "max_actions": args.max_actions, "max_failed_grasps": args.max_failed_grasps,
         "jitter_xy_m": args.jitter_xy, "jitter_yaw_deg": args.jitter_yaw, "grasp_threshold": args.grasp_threshold,
         "push_budget": args.push_budget, "failed_grasp_radius_m": args.failed_grasp_radius,
-        "futile_push_radius_m": args.futile_push_radius,
+        "futile_push_radius_m": args.futile_push_radius, "grasp_check": args.grasp_check,
         "grasp_filter": None if grasp_filter is None else str(grasp_filter),
+        "geometry_config": str(geometry.path), "primitives": asdict(geometry.primitives),
         "git_commit": git_commit(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "workers": args.workers,
         "host_cpus": os.cpu_count(),
     }

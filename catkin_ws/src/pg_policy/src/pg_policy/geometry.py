@@ -7,7 +7,7 @@ Raises FileNotFoundError for a missing file and ValueError (naming the key) for 
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import MISSING, dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -121,6 +121,10 @@ class PrimitiveSpec:
     push_speed: float
     waypoint_step: float
     time_budget: float
+    # Guarded grasp descent: the approach stops where the fingers meet an upward contact force above this (N) from
+    # an object or the table, as a real arm's force limit would; 0 = descend to the planned z regardless. Optional
+    # in the YAML (0 when absent).
+    grasp_stop_force: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -169,8 +173,10 @@ def _tuple(d: dict, key: str, where: str, n: int | None = None) -> tuple[float, 
 def _section(raw: dict, name: str, cls: type, lists: dict[str, int | None]) -> Any:
     sec = _get(raw, name, "")
     kwargs = {}
-    for field in cls.__dataclass_fields__:
-        if field in lists:
+    for field, spec in cls.__dataclass_fields__.items():
+        if isinstance(sec, dict) and field not in sec and spec.default is not MISSING:
+            kwargs[field] = spec.default
+        elif field in lists:
             kwargs[field] = _tuple(sec, field, f"{name}.", lists[field])
         else:
             kwargs[field] = _get(sec, field, f"{name}.")
@@ -215,6 +221,10 @@ def parse(raw: dict, path: Path) -> Geometry:
         cols=int(round((ws.x[1] - ws.x[0]) / res)),
     )
     frames = _get(raw, "frames", "")
+    primitives = _section(raw, "primitives", PrimitiveSpec, {})
+    if not isinstance(primitives.grasp_stop_force, int | float) or primitives.grasp_stop_force < 0:
+        raise ValueError(f"geometry config: 'primitives.grasp_stop_force' must be a force >= 0 N (0 = off), "
+                         f"got {primitives.grasp_stop_force!r}")
     return Geometry(
         path=path,
         world_frame=str(_get(frames, "world", "frames.")),
@@ -225,7 +235,7 @@ def parse(raw: dict, path: Path) -> Geometry:
         table=_section(raw, "table", TableSpec, {"size": 3, "center_xy": 2}),
         robot=_robot(raw),
         gripper=_section(raw, "gripper", GripperSpec, {"palm_size": 3, "finger_size": 3}),
-        primitives=_section(raw, "primitives", PrimitiveSpec, {}),
+        primitives=primitives,
     )
 
 

@@ -363,17 +363,17 @@ class HeuristicPlanner:
         fewer than `min_target_cells` cells or no push start is free. Used to guide exploration in training."""
         if int(target.sum()) < self.p.min_target_cells:
             return None
-        return self.best_push(hm, target, self._around(hm, target)[0])
+        return self.best_push(hm, target, self.around(hm, target)[0])
 
     def grasp_of(self, hm: Heightmap, target: np.ndarray) -> Action | None:
         """The rule's free grasp of a visible target (rule 1), None when there is none or the target has fewer than
         `min_target_cells` cells. Used to guide exploration in training."""
         if int(target.sum()) < self.p.min_target_cells:
             return None
-        cells, others = self._around(hm, target)
+        cells, others = self.around(hm, target)
         return self.best_grasp(hm, target, others, cells, [])
 
-    def _around(self, hm: Heightmap, target: np.ndarray) -> tuple[_Cells, np.ndarray]:
+    def around(self, hm: Heightmap, target: np.ndarray) -> tuple[_Cells, np.ndarray]:
         """The examined window around a visible target and the (H, W) bool cells of other objects."""
         return _Cells(hm, self._centre(hm, target), self.p.window), (hm.height > self.p.occupied) & ~_dilate(target, 1)
 
@@ -388,7 +388,7 @@ class HeuristicPlanner:
         pushes_in_row: pushes since the last grasp (from `declutter_after` on, a blocking neighbour may be removed).
         """
         if int(target.sum()) >= self.p.min_target_cells:
-            cells, others = self._around(hm, target)
+            cells, others = self.around(hm, target)
             act = self.remove_on_top(hm, target, tabu)
             if act is None:
                 act = self.best_grasp(hm, target, others, cells, tabu)

@@ -33,6 +33,7 @@ from pg_policy.failed_grasps import DEFAULT_RADIUS_M, FailedGrasps
 from pg_policy.futile_pushes import DEFAULT_RADIUS_M as FUTILE_RADIUS_M
 from pg_policy.futile_pushes import FutilePushes
 from pg_policy.geometry import Geometry, load
+from pg_policy.grasp_check import make_grasp_check
 from pg_policy.heightmap import Heightmap
 
 RANDOM_RADIUS_M = 0.02
@@ -64,7 +65,9 @@ class PolicyOptions:
     failed grasp's closing axis is not retried within this radius in the same trial (pg_policy.failed_grasps;
     None = its DEFAULT_RADIUS_M, 0 = off); futile_push_radius_m (learned): likewise for a push that changed nothing
     around the target (pg_policy.futile_pushes); grasp_filter (grasp-only, learned): a pg_policy.grasp_filter spec
-    applied to Q_g before the decision (None = the model metadata's thresholds.grasp_filter, else "none")."""
+    applied to Q_g before the decision (None = the model metadata's thresholds.grasp_filter, else "none");
+    grasp_check (learned): a pg_policy.grasp_check name ("jaw": re-rank Q_g's best cells by the heuristic's
+    jaw-footprint test while the target is visible; None or "none" = no check)."""
 
     models: tuple[Path, ...] = ()
     seed: int = 0
@@ -75,6 +78,7 @@ class PolicyOptions:
     failed_grasp_radius_m: float | None = None
     futile_push_radius_m: float | None = None
     grasp_filter: str | None = None
+    grasp_check: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -234,6 +238,13 @@ def _goal_or_all(obs: Any) -> np.ndarray:
     return objects if objects.any() else np.ones_like(target)
 
 
+def _visible(obs: Any) -> bool:
+    """Whether the target is visible, i.e. _goal_or_all gives its own mask rather than the goal-agnostic one."""
+    from pg_policy.target_mask import MIN_VISIBLE_CELLS
+
+    return int(observed_target(obs).sum()) >= MIN_VISIBLE_CELLS
+
+
 class GraspOnlyPolicy(_Base):
     """Always grasps at the argmax of the (filtered: `grasp_filter_of`) Q_g over the target mask (all objects when
     the target is not visible)."""
@@ -297,6 +308,7 @@ class LearnedPolicy(_Base):
         self.futile = FutilePushes(self.rotations, radius)
         self.last_seen: tuple[Heightmap, np.ndarray] | None = None  # the heightmap and mask the last decision used
         self.grasp_filter = grasp_filter_of(opts, self.nets.metadata["grasp"])
+        self.grasp_check = make_grasp_check(opts.grasp_check, self.geometry)
         self.last: Decision | None = None
 
     def reset(self, seed: int | None = None) -> None:
@@ -307,7 +319,7 @@ class LearnedPolicy(_Base):
         self.last, self.last_seen = None, None
 
     def act(self, obs: Any) -> Decision:
-        from pg_policy.decision import decide
+        from pg_policy.decision import decide, grasp_region
 
         hm = obs.heightmap
         mask = _goal_or_all(obs)
@@ -320,6 +332,8 @@ class LearnedPolicy(_Base):
         self._q = {"grasp": self.grasp_filter.apply(q["grasp"]), "push": q["push"]}
         spent = 0 < self.push_budget <= self.pushes_in_row
         q_grasp = self.failed.suppress(self._q["grasp"], hm)
+        if self.grasp_check is not None and _visible(obs):
+            q_grasp = self.grasp_check.apply(q_grasp, hm, grasp_region(mask, hm.resolution), mask)
         q_push = self.futile.suppress(self._q["push"], hm)
         d = decide(q_grasp, q_push, mask, hm, self.prims, -math.inf if spent else self.threshold)
         self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0

@@ -7,7 +7,7 @@ MotionTimeout when it passes.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 
 import numpy as np
 import pybullet as p
@@ -83,11 +83,14 @@ class ArmDriver:
             raise MotionTimeout(f"motion exceeded the primitive time budget at t={t:.2f} s")
         return t
 
-    def follow(self, path: Sequence[np.ndarray], speeds: Sequence[float] | None = None, dt: float = 1 / 240) -> None:
+    def follow(self, path: Sequence[np.ndarray], speeds: Sequence[float] | None = None, dt: float = 1 / 240,
+               stop: Callable[[], bool] | None = None) -> bool:
         """Track a joint-space path (first point = current joints) with linear interpolation per segment.
 
         Segment duration = max(joint distance / joint speed limit, Cartesian length / tool speed) where `speeds`
-        gives the Cartesian time (s) of each segment; ends when the joints settle within 2e-3 rad.
+        gives the Cartesian time (s) of each segment; ends when the joints settle within 2e-3 rad. A guarded
+        motion: when `stop()` turns True after a tick, the arm holds where it is and follow returns False; True
+        when the path was completed.
         """
         qs = [np.asarray(q, dtype=np.float64) for q in path]
         for k in range(1, len(qs)):
@@ -97,7 +100,21 @@ class ArmDriver:
             for i in range(1, n + 1):
                 self._command(qs[k - 1] + dq * (i / n), dq / duration)
                 self._tick()
+                if stop is not None and stop():
+                    self._command(self.joints(), np.zeros(6))
+                    return False
         self.settle(qs[-1])
+        return True
+
+    def finger_lift_force(self, bodies: Collection[int]) -> float:
+        """Upward force (N, world +z) that `bodies` exert on the two fingers through contact: the sum of normal
+        force x the z of the contact normal (which PyBullet gives on the other body, pointing at the finger)."""
+        total = 0.0
+        for finger in self.arm.fingers:
+            for c in p.getContactPoints(bodyA=self.body_, linkIndexA=finger, physicsClientId=self.client_):
+                if c[2] in bodies:
+                    total += c[9] * c[7][2]
+        return total
 
     def settle(self, q: np.ndarray, tol: float = 2e-3, max_time: float = 0.5, dt: float = 1 / 240) -> bool:
         """Hold q until the joints are within tol (rad) or max_time passes; True when reached."""

@@ -7,6 +7,7 @@ PrimitiveRefused before anything moves. Execution is bounded by the primitives.t
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -138,10 +139,12 @@ class PrimitiveExecutor:
         try:
             driver.command_gripper(g.max_opening if primitive == "grasp" else 0.0)
             driver.follow(plan.approach)
-            driver.follow(plan.cartesian[0], [length / speed for length in plan.lengths[0]])
+            guard = self._descent_guard(driver) if primitive == "grasp" else None
+            reached = driver.follow(plan.cartesian[0], [length / speed for length in plan.lengths[0]], stop=guard)
             if primitive == "grasp":
                 driver.gripper(0.0)
-                driver.follow(plan.cartesian[1], [length / speed for length in plan.lengths[1]])
+                lift = plan.cartesian[1] if reached else self._lift_from_here(driver, plan)
+                driver.follow(lift, [length / speed for length in plan.lengths[1]])
                 grasped = driver.opening() > g.closed_threshold
                 lifted = self._held_objects(driver) if grasped else []
                 held = self._credited(lifted)
@@ -162,6 +165,22 @@ class PrimitiveExecutor:
         self._go_home(driver, plan.arm)
         return PrimitiveResult(primitive, plan.arm, executed, grasped, held, target_grasped,
                                world.sim_time - t0, message)
+
+    def _descent_guard(self, driver: ArmDriver) -> Callable[[], bool] | None:
+        """Stop condition of the grasp descent: the objects press up on the fingers with more than
+        primitives.grasp_stop_force (N); None (no guard) when that is 0."""
+        limit = self.prims_.grasp_stop_force
+        if limit <= 0:
+            return None
+        return lambda: driver.finger_lift_force(self.world_.objects) > limit
+
+    def _lift_from_here(self, driver: ArmDriver, plan: _Plan) -> list[np.ndarray]:
+        """The planned lift path shifted to start at the joints where a guarded descent stopped: the lift keeps
+        its length in joint space, so it rises by the planned lift height from the stop point (approximately:
+        the shift is small next to the path)."""
+        here = driver.joints()
+        shift = here - plan.cartesian[1][0]
+        return [q + shift for q in plan.cartesian[1]]
 
     def _held_objects(self, driver: ArmDriver) -> list[int]:
         """Body ids of the objects the closed jaw lifted (ground truth), sorted: every object touching a finger

@@ -1,0 +1,90 @@
+"""A geometric check of the learned grasp: the jaw-footprint test of pg_policy.heuristic applied to Q_g's best cells.
+
+Q_g is an (R, H, W) float map over R rotations (rotation r: the fingers close along yaw = r * 2 pi / R) and the
+heightmap's cells (pg_policy.heightmap; heights in metres above the table). The check walks the grasp region's
+cells in descending Q_g (at most `top_k`) and keeps the first whose grasp passes the heuristic planner's
+`grasp_fit` at that cell and yaw: the target fits between the open pads, it is as wide in the pads' central strip as
+anywhere between them (else a round or wedge-shaped target squirts out), no neighbour stands in a finger's sweep,
+and the cell lies within `centre_tol_m` of the pad-centred grasp line. It only re-ranks: the passing cell takes the
+best value and the cells ranked above it get -inf, so the grasp-or-push decision (masked max vs the threshold) is
+the same as without the check. When no candidate passes, Q_g is returned unchanged. A test-time deviation from the
+paper (docs/ARCHITECTURE.md); off by default.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pg_policy.action_geometry import grasp_z
+from pg_policy.geometry import Geometry
+from pg_policy.heightmap import Heightmap, pixel_to_world
+
+NAMES = ("none", "jaw")  # what PolicyOptions.grasp_check / `pushgrasp eval --grasp-check` accept
+TOP_K = 200  # candidate cells examined per decision
+CENTRE_TOL_M = 0.01  # the learned cell may sit this far from the pad-centred line along the closing axis
+
+
+class JawGraspCheck:
+    """Re-ranks Q_g by the heuristic's jaw-footprint test (module docstring); stateless between calls."""
+
+    def __init__(self, geometry: Geometry, top_k: int = TOP_K, centre_tol_m: float = CENTRE_TOL_M) -> None:
+        from pg_policy.heuristic import HeuristicPlanner
+
+        if top_k < 1 or centre_tol_m < 0:
+            raise ValueError(f"grasp check needs top_k >= 1 and centre_tol_m >= 0, got {top_k}, {centre_tol_m}")
+        self.planner = HeuristicPlanner(geometry)
+        self.prims = geometry.primitives
+        self.top_k, self.centre_tol = top_k, centre_tol_m
+        self.rejected = 0  # candidates ranked above the chosen one in the last apply() (0: the learned choice passed)
+
+    def passes(self, hm: Heightmap, target: np.ndarray, rotation: int, row: int, col: int,
+               cells_others: tuple | None = None) -> bool:
+        """Whether a grasp at cell (row, col) and `rotation` passes the jaw-footprint test for the (H, W) target."""
+        cells, others = cells_others or self.planner.around(hm, target)
+        t = target[cells.slice].reshape(-1)
+        o = others[cells.slice].reshape(-1)
+        yaw = rotation * 2 * math.pi / self.planner.rotations
+        centre = np.array(pixel_to_world(row, col, hm.bounds, hm.resolution))
+        zg = grasp_z(hm.height, row, col, self.prims)
+        fit = self.planner.grasp_fit(cells.xy[t], cells.xy[o], cells.h[o], centre, yaw, zg)
+        if fit is None or fit[0] < 0:
+            return False
+        u = np.array([math.cos(yaw), math.sin(yaw)])
+        return abs(float((fit[1] - centre) @ u)) <= self.centre_tol
+
+    def apply(self, q: np.ndarray, hm: Heightmap, region: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """(R, H, W) float64 copy of `q` re-ranked inside the (H, W) bool `region` (the grasp region) so that its
+        argmax is the best-valued candidate passing the test for the (H, W) bool `target` mask; `q` unchanged
+        (as float64) when none of the top_k passes or the target is empty."""
+        out = np.asarray(q, dtype=np.float64).copy()
+        self.rejected = 0
+        if not target.any():
+            return out
+        masked = np.where(region[None] & np.isfinite(out), out, -np.inf).reshape(-1)
+        k = min(self.top_k, int(np.isfinite(masked).sum()))
+        if k == 0:
+            return out
+        order = np.argpartition(-masked, k - 1)[:k]
+        order = order[np.argsort(-masked[order], kind="stable")]
+        context = self.planner.around(hm, target)
+        for rank, flat in enumerate(order):
+            r, row, col = np.unravel_index(int(flat), out.shape)
+            if self.passes(hm, target, int(r), int(row), int(col), context):
+                if rank:
+                    best = masked[order[0]]
+                    out.reshape(-1)[order[:rank]] = -np.inf
+                    out[r, row, col] = best
+                self.rejected = rank
+                return out
+        return out
+
+
+def make_grasp_check(name: str | None, geometry: Geometry) -> JawGraspCheck | None:
+    """The check called `name` ("none" or None: no check; "jaw": JawGraspCheck); ValueError for other names."""
+    if name in (None, "none"):
+        return None
+    if name == "jaw":
+        return JawGraspCheck(geometry)
+    raise ValueError(f"unknown grasp check {name!r} (known: {', '.join(NAMES)})")

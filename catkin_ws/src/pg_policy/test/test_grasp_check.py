@@ -1,0 +1,69 @@
+"""pg_policy.grasp_check: the jaw-footprint test re-ranks Q_g's best cells without changing the grasp/push choice."""
+
+import numpy as np
+import pytest
+
+from pg_policy.geometry import load
+from pg_policy.grasp_check import JawGraspCheck, make_grasp_check
+from pg_policy.heightmap import Heightmap
+
+GEO = load()
+H = W = 224
+C = 112  # the target's centre cell
+ALONG_X, ALONG_Y = 0, 4  # rotation indices closing the fingers along x and along y
+
+
+def _scene(*neighbours: tuple[int, int]) -> tuple[Heightmap, np.ndarray]:
+    """A 3 x 3 cm, 3 cm high target at the centre and 3 cm boxes whose centres are (drow, dcol) cells away."""
+    height = np.zeros((H, W), np.float32)
+    height[C - 7:C + 8, C - 7:C + 8] = 0.03
+    target = height > 0
+    for dr, dc in neighbours:
+        height[C + dr - 7:C + dr + 8, C + dc - 7:C + dc + 8] = 0.03
+    hm = Heightmap(np.zeros((H, W, 3), np.uint8), height, np.ones((H, W), bool), GEO.heightmap.resolution,
+                   GEO.workspace.bounds)
+    return hm, target
+
+
+def _q() -> np.ndarray:
+    q = np.zeros((16, H, W))
+    q[ALONG_X, C, C] = 1.0  # the learned favourite: close along x
+    q[ALONG_Y, C, C] = 0.5
+    return q
+
+
+def test_a_blocked_favourite_gives_way_to_the_best_free_grasp_at_the_same_value():
+    hm, target = _scene((0, 20))  # a neighbour 1 cm beyond the target's +x face: in the sweep of the x-closing jaw
+    check = JawGraspCheck(GEO)
+    out = check.apply(_q(), hm, target, target)
+    assert np.unravel_index(np.argmax(out), out.shape) == (ALONG_Y, C, C)
+    assert out.max() == 1.0 and out[ALONG_X, C, C] == -np.inf and check.rejected > 0
+
+
+def test_a_free_favourite_is_kept_unchanged():
+    hm, target = _scene()
+    check = JawGraspCheck(GEO)
+    q = _q()
+    out = check.apply(q, hm, target, target)
+    np.testing.assert_array_equal(out, q)
+    assert check.rejected == 0
+
+
+def test_when_nothing_passes_the_learned_map_is_kept():
+    hm, target = _scene((0, 20), (0, -20), (20, 0), (-20, 0))  # boxed in on all four sides
+    q = _q()
+    np.testing.assert_array_equal(JawGraspCheck(GEO).apply(q, hm, target, target), q)
+
+
+def test_an_off_centre_cell_fails_even_when_the_jaw_would_be_free():
+    hm, target = _scene()
+    check = JawGraspCheck(GEO, centre_tol_m=0.004)
+    assert check.passes(hm, target, ALONG_X, C, C)
+    assert not check.passes(hm, target, ALONG_X, C, C + 5)  # 1 cm off the pad-centred line along x
+
+
+def test_names():
+    assert make_grasp_check(None, GEO) is None and make_grasp_check("none", GEO) is None
+    assert isinstance(make_grasp_check("jaw", GEO), JawGraspCheck)
+    with pytest.raises(ValueError, match="unknown grasp check"):
+        make_grasp_check("fancy", GEO)
