@@ -259,3 +259,34 @@ def test_grasp_filter_default_comes_from_the_model_metadata(model_dir, tmp_path)
     assert str(make_policy(str(tmp_path)).grasp_filter) == "min3"
     assert str(make_policy(str(tmp_path), PolicyOptions(grasp_filter="none")).grasp_filter) == "none"
     shutil.rmtree(tmp_path)
+
+
+def test_grasp_check_comes_from_the_option_else_the_model_metadata(model_dir, tmp_path):
+    from pg_policy.model_io import export_qnet, load_qnet
+
+    assert make_policy("learned", PolicyOptions(models=(model_dir,))).grasp_check is None  # no metadata entry
+    for role in ("grasp", "push"):
+        net, meta = load_qnet(model_dir / f"{role}.pt")
+        meta["thresholds"] = {**meta.get("thresholds", {}), "grasp_check": "jaw"}
+        export_qnet(net, tmp_path / f"{role}.pt", meta)
+    assert make_policy(str(tmp_path)).grasp_check.name == "jaw"
+    assert make_policy(str(tmp_path), PolicyOptions(grasp_check="none")).grasp_check is None
+    with pytest.raises(ValueError, match="unknown grasp check"):
+        make_policy(str(tmp_path), PolicyOptions(grasp_check="fancy"))
+
+
+def test_the_grasp_check_moves_a_blocked_grasp_and_keeps_the_decision(model_dir):
+    # The check only re-ranks Q_g: same primitive and same compared value; the chosen grasp passes the jaw test.
+    from pg_policy.grasp_check import JawGraspCheck
+    from pg_policy.policies import observed_target
+
+    obs = _scene([(0.0, 0.0, CUBE, CUBE, "green"), (0.06, 0.0, CUBE, CUBE, "blue"), (-0.06, 0.0, CUBE, CUBE, "red")])
+    plain = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=-1e9))
+    checked = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=-1e9, grasp_check="jaw"))
+    # every cell is a candidate: the untrained net's best 200 may all close along x
+    checked.grasp_check = JawGraspCheck(checked.geometry, top_k=10**6)
+    d0, d1 = plain.act(obs), checked.act(obs)
+    assert d0.primitive == d1.primitive == "grasp" and d1.grasp_q == pytest.approx(d0.grasp_q)
+    target = observed_target(obs)
+    assert not JawGraspCheck(plain.geometry).passes(obs.heightmap, target, d0.rotation, d0.row, d0.col)
+    assert JawGraspCheck(plain.geometry).passes(obs.heightmap, target, d1.rotation, d1.row, d1.col)

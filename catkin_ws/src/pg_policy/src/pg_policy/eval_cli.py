@@ -71,7 +71,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                          "min3, mean5, sym+min3, ...) (default: the model metadata's, else none)")
     ev.add_argument("--grasp-check", default=None, choices=("none", "jaw"),
                     help="learned: re-rank Q_g's best cells by the heuristic's jaw-footprint test while the target "
-                         "is visible (pg_policy.grasp_check; default none)")
+                         "is visible (pg_policy.grasp_check; default: the model metadata's, else none)")
     ev.add_argument("--device", default="cpu", help="torch device of learned policies (default cpu)")
     ev.add_argument("--workers", type=int, default=1,
                     help="parallel simulator processes (default 1); results do not depend on it")
@@ -163,6 +163,7 @@ def _run(args: argparse.Namespace) -> int:
         opts = replace(opts, models=tuple(paths))
     policy_name = getattr(policy, "name", args.policy)
     grasp_filter = getattr(policy, "grasp_filter", None)  # as resolved (flag, else model metadata)
+    grasp_check = getattr(getattr(policy, "grasp_check", None), "name", "none")  # likewise
     del policy
     plan = EvalPlan(tuple(scenes), args.trials, args.seed, Limits(args.max_actions, args.max_failed_grasps),
                     args.jitter_xy, math.radians(args.jitter_yaw))
@@ -173,7 +174,7 @@ def _run(args: argparse.Namespace) -> int:
         "max_actions": args.max_actions, "max_failed_grasps": args.max_failed_grasps,
         "jitter_xy_m": args.jitter_xy, "jitter_yaw_deg": args.jitter_yaw, "grasp_threshold": args.grasp_threshold,
         "push_budget": args.push_budget, "failed_grasp_radius_m": args.failed_grasp_radius,
-        "futile_push_radius_m": args.futile_push_radius, "grasp_check": args.grasp_check,
+        "futile_push_radius_m": args.futile_push_radius, "grasp_check": grasp_check,
         "grasp_filter": None if grasp_filter is None else str(grasp_filter),
         "geometry_config": str(geometry.path), "primitives": asdict(geometry.primitives),
         "git_commit": git_commit(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "workers": args.workers,

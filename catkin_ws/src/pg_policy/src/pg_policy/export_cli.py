@@ -24,6 +24,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--grasp-filter", default=None, metavar="SPEC",
                    help="filter applied to Q_g before the decision, stored in the metadata (pg_policy.grasp_filter: "
                         "none, sym, min3, sym+min3, ...; default: none, the paper's rule)")
+    p.add_argument("--grasp-check", default=None, choices=("none", "jaw"),
+                   help="geometric check of the chosen grasp stored in the metadata (pg_policy.grasp_check; "
+                        "default: none, the paper's rule)")
     p.set_defaults(run=_run)
 
 
@@ -38,7 +41,8 @@ def latest_checkpoint(run: Path, stage: str | None) -> Path:
 
 
 def export_run(run: Path, out: Path, stage: str | None = None, threshold: float | None = None,
-               push_budget: int | None = None, grasp_filter: str | None = None) -> list[Path]:
+               push_budget: int | None = None, grasp_filter: str | None = None,
+               grasp_check: str | None = None) -> list[Path]:
     """OUT/grasp.pt and OUT/push.pt from the run's checkpoint of `stage` (default: the latest), with the decision
     parameters in the metadata's thresholds. Raises FileNotFoundError (no checkpoint), ValueError (bad
     push_budget or grasp_filter)."""
@@ -60,6 +64,8 @@ def export_run(run: Path, out: Path, stage: str | None = None, threshold: float 
     thresholds = {"grasp_q": thr, "push_budget": int(push_budget)}
     if grasp_filter is not None:
         thresholds["grasp_filter"] = str(GraspFilter.parse(grasp_filter))
+    if grasp_check is not None:
+        thresholds["grasp_check"] = grasp_check
     written = []
     for role in ("grasp", "push"):
         net = build_qnet(qcfg)
@@ -71,6 +77,7 @@ def export_run(run: Path, out: Path, stage: str | None = None, threshold: float 
 
 
 def _run(args: argparse.Namespace) -> int:
-    for path in export_run(args.run_dir, args.out, args.stage, args.threshold, args.push_budget, args.grasp_filter):
+    for path in export_run(args.run_dir, args.out, args.stage, args.threshold, args.push_budget, args.grasp_filter,
+                           args.grasp_check):
         print(f"wrote {path}")
     return 0

@@ -29,6 +29,8 @@ CENTRE_TOL_M = 0.01  # the learned cell may sit this far from the pad-centred li
 class JawGraspCheck:
     """Re-ranks Q_g by the heuristic's jaw-footprint test (module docstring); stateless between calls."""
 
+    name = "jaw"
+
     def __init__(self, geometry: Geometry, top_k: int = TOP_K, centre_tol_m: float = CENTRE_TOL_M) -> None:
         from pg_policy.heuristic import HeuristicPlanner
 

@@ -25,6 +25,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--grasp-filter", default=None, metavar="SPEC",
                    help="learned models: filter of Q_g before the decision (none, min3, sym+min3, ...; default: the "
                         "model's own); the grasp panel shows the filtered map")
+    p.add_argument("--grasp-check", default=None, choices=("none", "jaw"),
+                   help="learned models: geometric check of the chosen grasp (pg_policy.grasp_check; default: the "
+                        "model's own); the grasp panel shows the map before the check")
     p.set_defaults(run=_run)
 
 
@@ -86,7 +89,8 @@ def _run(args: argparse.Namespace) -> int:
 
     if args.steps < 0:
         raise ValueError("--steps must be >= 0")
-    policy = make_policy(args.model, PolicyOptions(seed=args.seed, grasp_filter=args.grasp_filter))
+    policy = make_policy(args.model, PolicyOptions(seed=args.seed, grasp_filter=args.grasp_filter,
+                                                       grasp_check=args.grasp_check))
     grasp_filter = getattr(policy, "grasp_filter", None)  # learned policies only: named in the Q_g panel
     with SimEnv() as env:
         obs = env.reset(args.scene, seed=args.seed)

@@ -67,7 +67,8 @@ class PolicyOptions:
     around the target (pg_policy.futile_pushes); grasp_filter (grasp-only, learned): a pg_policy.grasp_filter spec
     applied to Q_g before the decision (None = the model metadata's thresholds.grasp_filter, else "none");
     grasp_check (learned): a pg_policy.grasp_check name ("jaw": re-rank Q_g's best cells by the heuristic's
-    jaw-footprint test while the target is visible; None or "none" = no check)."""
+    jaw-footprint test while the target is visible; "none" = no check; None = the model metadata's
+    thresholds.grasp_check, else none)."""
 
     models: tuple[Path, ...] = ()
     seed: int = 0
@@ -227,6 +228,13 @@ def grasp_filter_of(opts: PolicyOptions, metadata: Any) -> Any:
     return GraspFilter.parse(spec)
 
 
+def grasp_check_of(opts: PolicyOptions, metadata: Any, geometry: Geometry) -> Any:
+    """The pg_policy.grasp_check of `opts.grasp_check`, else of the grasp model's metadata (thresholds.grasp_check),
+    else none (None). Raises ValueError for an unknown name."""
+    name = opts.grasp_check if opts.grasp_check is not None else metadata_thresholds(metadata).get("grasp_check")
+    return make_grasp_check(name, geometry)
+
+
 def _goal_or_all(obs: Any) -> np.ndarray:
     """The target mask; when the target is not visible, every object cell (goal-agnostic: uncover it)."""
     from pg_policy.target_mask import MIN_VISIBLE_CELLS
@@ -308,7 +316,7 @@ class LearnedPolicy(_Base):
         self.futile = FutilePushes(self.rotations, radius)
         self.last_seen: tuple[Heightmap, np.ndarray] | None = None  # the heightmap and mask the last decision used
         self.grasp_filter = grasp_filter_of(opts, self.nets.metadata["grasp"])
-        self.grasp_check = make_grasp_check(opts.grasp_check, self.geometry)
+        self.grasp_check = grasp_check_of(opts, self.nets.metadata["grasp"], self.geometry)
         self.last: Decision | None = None
 
     def reset(self, seed: int | None = None) -> None:

@@ -5,7 +5,8 @@ pg_policy.target_loop.TargetLoop.
 
 Private parameters (defaults): ~policy ("lite", the shipped model; a registry name, a shipped model folder name, a
 model directory or a TorchScript file), ~grasp_threshold (from the model), ~grasp_filter (from the model; a
-pg_policy.grasp_filter spec such as "none" or "min3"), ~heightmap_timeout (5.0 wall s),
+pg_policy.grasp_filter spec such as "none" or "min3"), ~grasp_check (from the model; "none" or "jaw":
+pg_policy.grasp_check), ~heightmap_timeout (5.0 wall s),
 ~primitive_timeout (60.0 s per primitive), ~max_actions (30), ~max_failed_grasps (5), ~call_timeout (600 wall s),
 ~execute_service ("/pg/execute_primitive"), ~dry_run (false: grasp_target refused; every new heightmap is decided
 on and published on /pg/dry_run/decisions).
@@ -39,7 +40,9 @@ class PolicyNode:
         self.policy_name = str(rospy.get_param("~policy", "lite"))
         threshold = rospy.get_param("~grasp_threshold", None)
         grasp_filter = rospy.get_param("~grasp_filter", None)
-        policy = make_policy(self.policy_name, PolicyOptions(grasp_threshold=threshold, grasp_filter=grasp_filter))
+        grasp_check = rospy.get_param("~grasp_check", None)
+        policy = make_policy(self.policy_name, PolicyOptions(grasp_threshold=threshold, grasp_filter=grasp_filter,
+                                                             grasp_check=grasp_check))
         self.limits = LoopLimits(int(rospy.get_param("~max_actions", 30)),
                                  int(rospy.get_param("~max_failed_grasps", 5)),
                                  float(rospy.get_param("~call_timeout", 600.0)))
