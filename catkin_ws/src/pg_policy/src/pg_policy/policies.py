@@ -235,22 +235,16 @@ def grasp_check_of(opts: PolicyOptions, metadata: Any, geometry: Geometry) -> An
     return make_grasp_check(name, geometry)
 
 
-def _goal_or_all(obs: Any) -> np.ndarray:
-    """The target mask; when the target is not visible, every object cell (goal-agnostic: uncover it)."""
+def _goal_or_all(obs: Any) -> tuple[np.ndarray, bool]:
+    """(the target mask, True) when the target is visible; else (every object cell, False): goal-agnostic, to
+    uncover it."""
     from pg_policy.target_mask import MIN_VISIBLE_CELLS
 
     target = observed_target(obs)
     if target.sum() >= MIN_VISIBLE_CELLS:
-        return target
+        return target, True
     objects = obs.heightmap.height > 0.008
-    return objects if objects.any() else np.ones_like(target)
-
-
-def _visible(obs: Any) -> bool:
-    """Whether the target is visible, i.e. _goal_or_all gives its own mask rather than the goal-agnostic one."""
-    from pg_policy.target_mask import MIN_VISIBLE_CELLS
-
-    return int(observed_target(obs).sum()) >= MIN_VISIBLE_CELLS
+    return (objects if objects.any() else np.ones_like(target)), False
 
 
 class GraspOnlyPolicy(_Base):
@@ -270,7 +264,7 @@ class GraspOnlyPolicy(_Base):
         from pg_policy.decision import masked_argmax
 
         hm = obs.heightmap
-        mask = _goal_or_all(obs)
+        mask, _ = _goal_or_all(obs)
         q = self.grasp_filter.apply(self.nets.q_maps(hm, mask, nets=("grasp",))["grasp"])
         self._q = {"grasp": q}
         r, row, col, value = masked_argmax(q, mask & hm.valid if (mask & hm.valid).any() else mask)
@@ -330,7 +324,7 @@ class LearnedPolicy(_Base):
         from pg_policy.decision import decide, grasp_region
 
         hm = obs.heightmap
-        mask = _goal_or_all(obs)
+        mask, visible = _goal_or_all(obs)
         if self.last is not None and self.last.primitive == "grasp":  # asked again: that grasp missed the target
             self.failed.add(self.last.rotation, self.last.x, self.last.y)
         elif self.last is not None and self.last_seen is not None:  # the last push: did it change anything?
@@ -340,7 +334,7 @@ class LearnedPolicy(_Base):
         self._q = {"grasp": self.grasp_filter.apply(q["grasp"]), "push": q["push"]}
         spent = 0 < self.push_budget <= self.pushes_in_row
         q_grasp = self.failed.suppress(self._q["grasp"], hm)
-        if self.grasp_check is not None and _visible(obs):
+        if self.grasp_check is not None and visible:
             q_grasp = self.grasp_check.apply(q_grasp, hm, grasp_region(mask, hm.resolution), mask)
         q_push = self.futile.suppress(self._q["push"], hm)
         d = decide(q_grasp, q_push, mask, hm, self.prims, -math.inf if spent else self.threshold)
