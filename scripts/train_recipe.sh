@@ -71,6 +71,6 @@ if [ "$done_its" -lt "$os8_iters" ]; then
   echo "[recipe] output-stride-8 alternate stopped at $done_its/$os8_iters iterations (time cap): rerun to continue"
   exit 3
 fi
-# the test-time grasp filter of the shipped model (docs/ARCHITECTURE.md) goes into the metadata
-"$py" -m pg_policy.cli export --run "$out/os8" --out "$export_dir" --grasp-filter min3
+# the test-time grasp filter and grasp check of the shipped model (docs/ARCHITECTURE.md) go into the metadata
+"$py" -m pg_policy.cli export --run "$out/os8" --out "$export_dir" --grasp-filter min3 --grasp-check jaw
 echo "[recipe] exported $export_dir"

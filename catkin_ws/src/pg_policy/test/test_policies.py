@@ -275,6 +275,14 @@ def test_grasp_check_comes_from_the_option_else_the_model_metadata(model_dir, tm
         make_policy(str(tmp_path), PolicyOptions(grasp_check="fancy"))
 
 
+def test_the_shipped_model_brings_its_test_time_rules():
+    # docs/RESULTS.md reports `lite` with these; `make train` exports them (scripts/train_recipe.sh)
+    lite = make_policy("lite")
+    assert str(lite.grasp_filter) == "min3" and lite.grasp_check.name == "jaw"
+    assert lite.threshold == pytest.approx(0.7) and lite.push_budget == 3
+    assert make_policy("lite", PolicyOptions(grasp_check="none")).grasp_check is None
+
+
 def test_the_grasp_check_moves_a_blocked_grasp_and_keeps_the_decision(model_dir):
     # The check only re-ranks Q_g: same primitive and same compared value; the chosen grasp passes the jaw test.
     from pg_policy.grasp_check import JawGraspCheck
