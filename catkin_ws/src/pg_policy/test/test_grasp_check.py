@@ -49,10 +49,15 @@ def test_a_free_favourite_is_kept_unchanged():
     assert check.rejected == 0
 
 
-def test_when_nothing_passes_the_learned_map_is_kept():
+def test_when_nothing_passes_the_learned_map_is_kept_and_the_check_says_so():
     hm, target = _scene((0, 20), (0, -20), (20, 0), (-20, 0))  # boxed in on all four sides
     q = _q()
-    np.testing.assert_array_equal(JawGraspCheck(GEO).apply(q, hm, target, target), q)
+    check = JawGraspCheck(GEO)
+    np.testing.assert_array_equal(check.apply(q, hm, target, target), q)
+    assert check.vetoed
+    free, _ = _scene()
+    check.apply(q, free, target, target)
+    assert not check.vetoed  # the flag describes the last call only
 
 
 def test_an_off_centre_cell_fails_even_when_the_jaw_would_be_free():
@@ -64,6 +69,8 @@ def test_an_off_centre_cell_fails_even_when_the_jaw_would_be_free():
 
 def test_names():
     assert make_grasp_check(None, GEO) is None and make_grasp_check("none", GEO) is None
-    assert isinstance(make_grasp_check("jaw", GEO), JawGraspCheck)
+    assert isinstance(make_grasp_check("jaw", GEO), JawGraspCheck) and not make_grasp_check("jaw", GEO).strict
+    strict = make_grasp_check("jaw-strict", GEO)
+    assert strict.strict and strict.name == "jaw-strict"
     with pytest.raises(ValueError, match="unknown grasp check"):
         make_grasp_check("fancy", GEO)

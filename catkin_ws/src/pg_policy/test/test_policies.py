@@ -298,3 +298,18 @@ def test_the_grasp_check_moves_a_blocked_grasp_and_keeps_the_decision(model_dir)
     target = observed_target(obs)
     assert not JawGraspCheck(plain.geometry).passes(obs.heightmap, target, d0.rotation, d0.row, d0.col)
     assert JawGraspCheck(plain.geometry).passes(obs.heightmap, target, d1.rotation, d1.row, d1.col)
+
+
+def test_the_strict_check_pushes_when_no_grasp_passes_until_the_push_budget_is_spent(model_dir):
+    # A target boxed in on all four sides: no jaw fits. "jaw" grasps anyway (threshold -1e9), "jaw-strict" pushes,
+    # and grasps once the push budget (1) is spent.
+    obs = _scene([(0.0, 0.0, CUBE, CUBE, "green"), (0.05, 0.0, CUBE, CUBE, "blue"), (-0.05, 0.0, CUBE, CUBE, "red"),
+                  (0.0, 0.05, CUBE, CUBE, "yellow"), (0.0, -0.05, CUBE, CUBE, "orange")])
+    opts = {"models": (model_dir,), "grasp_threshold": -1e9, "push_budget": 1}
+    assert make_policy("learned", PolicyOptions(**opts, grasp_check="jaw")).act(obs).primitive == "grasp"
+    strict = make_policy("learned", PolicyOptions(**opts, grasp_check="jaw-strict"))
+    strict.reset(0)
+    first = strict.act(obs)
+    assert first.primitive == "push" and "jaw check" in strict.last_note
+    assert strict.act(obs).primitive == "grasp" and strict.last_note == ""
+

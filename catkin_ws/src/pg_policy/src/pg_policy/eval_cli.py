@@ -25,6 +25,8 @@ from pg_policy.evaluate import (
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    from pg_policy.grasp_check import NAMES as CHECKS
+
     ev = sub.add_parser(
         "eval", help="evaluate a policy on scenes (completion, grasp success, motion number; DESIGN.md section 8)",
         description="Run trials of a policy and write results.json, results.md (C, GS, MN per scene) and results.png.",
@@ -69,9 +71,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ev.add_argument("--grasp-filter", default=None, metavar="SPEC",
                     help="grasp-only/learned: filter Q_g before the decision (pg_policy.grasp_filter: none, sym, "
                          "min3, mean5, sym+min3, ...) (default: the model metadata's, else none)")
-    ev.add_argument("--grasp-check", default=None, choices=("none", "jaw"),
+    ev.add_argument("--grasp-check", default=None, choices=CHECKS,
                     help="learned: re-rank Q_g's best cells by the heuristic's jaw-footprint test while the target "
-                         "is visible (pg_policy.grasp_check; default: the model metadata's, else none)")
+                         "is visible; jaw-strict: and push (within the push budget) when none passes "
+                         "(pg_policy.grasp_check; default: the model metadata's, else none)")
     ev.add_argument("--device", default="cpu", help="torch device of learned policies (default cpu)")
     ev.add_argument("--workers", type=int, default=1,
                     help="parallel simulator processes (default 1); results do not depend on it")

@@ -9,6 +9,8 @@ STAGE_ORDER = ("offline", "alternate", "push", "grasp-goal", "grasp-agnostic")  
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    from pg_policy.grasp_check import NAMES as CHECKS
+
     p = sub.add_parser("export", help="export a run's checkpoint as TorchScript files with embedded metadata",
                        description="Writes OUT/grasp.pt and OUT/push.pt; loading them needs no project source.")
     p.add_argument("--run", dest="run_dir", type=Path, required=True,
@@ -24,7 +26,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--grasp-filter", default=None, metavar="SPEC",
                    help="filter applied to Q_g before the decision, stored in the metadata (pg_policy.grasp_filter: "
                         "none, sym, min3, sym+min3, ...; default: none, the paper's rule)")
-    p.add_argument("--grasp-check", default=None, choices=("none", "jaw"),
+    p.add_argument("--grasp-check", default=None, choices=CHECKS,
                    help="geometric check of the chosen grasp stored in the metadata (pg_policy.grasp_check; "
                         "default: none, the paper's rule)")
     p.set_defaults(run=_run)

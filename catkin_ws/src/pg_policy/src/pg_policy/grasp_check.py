@@ -7,8 +7,10 @@ cells in descending Q_g (at most `top_k`) and keeps the first whose grasp passes
 anywhere between them (else a round or wedge-shaped target squirts out), no neighbour stands in a finger's sweep,
 and the cell lies within `centre_tol_m` of the pad-centred grasp line. It only re-ranks: the passing cell takes the
 best value and the cells ranked above it get -inf, so the grasp-or-push decision (masked max vs the threshold) is
-the same as without the check. When no candidate passes, Q_g is returned unchanged. A test-time deviation from the
-paper (docs/ARCHITECTURE.md); off by default.
+the same as without the check. When no candidate passes, Q_g is returned unchanged and `vetoed` is set: the strict
+variant ("jaw-strict") then tells the policy to push instead of grasping (pg_policy.policies.LearnedPolicy), as the
+heuristic baseline does when it finds no free grasp. A test-time deviation from the paper (docs/ARCHITECTURE.md);
+"jaw" is in the shipped model's metadata.
 """
 
 from __future__ import annotations
@@ -21,25 +23,27 @@ from pg_policy.action_geometry import grasp_z
 from pg_policy.geometry import Geometry
 from pg_policy.heightmap import Heightmap, pixel_to_world
 
-NAMES = ("none", "jaw")  # what PolicyOptions.grasp_check / `pushgrasp eval --grasp-check` accept
+NAMES = ("none", "jaw", "jaw-strict")  # what PolicyOptions.grasp_check / `pushgrasp eval --grasp-check` accept
 TOP_K = 200  # candidate cells examined per decision
 CENTRE_TOL_M = 0.01  # the learned cell may sit this far from the pad-centred line along the closing axis
 
 
 class JawGraspCheck:
-    """Re-ranks Q_g by the heuristic's jaw-footprint test (module docstring); stateless between calls."""
+    """Re-ranks Q_g by the heuristic's jaw-footprint test (module docstring); `strict`: a veto (no candidate
+    passed) asks the policy to push. Only the last apply()'s outcome is kept (`rejected`, `vetoed`)."""
 
-    name = "jaw"
-
-    def __init__(self, geometry: Geometry, top_k: int = TOP_K, centre_tol_m: float = CENTRE_TOL_M) -> None:
+    def __init__(self, geometry: Geometry, top_k: int = TOP_K, centre_tol_m: float = CENTRE_TOL_M,
+                 strict: bool = False) -> None:
         from pg_policy.heuristic import HeuristicPlanner
 
         if top_k < 1 or centre_tol_m < 0:
             raise ValueError(f"grasp check needs top_k >= 1 and centre_tol_m >= 0, got {top_k}, {centre_tol_m}")
         self.planner = HeuristicPlanner(geometry)
         self.prims = geometry.primitives
-        self.top_k, self.centre_tol = top_k, centre_tol_m
+        self.top_k, self.centre_tol, self.strict = top_k, centre_tol_m, strict
+        self.name = "jaw-strict" if strict else "jaw"
         self.rejected = 0  # candidates ranked above the chosen one in the last apply() (0: the learned choice passed)
+        self.vetoed = False  # the last apply() found no passing candidate among a non-empty region
 
     def passes(self, hm: Heightmap, target: np.ndarray, rotation: int, row: int, col: int,
                cells_others: tuple | None = None) -> bool:
@@ -61,7 +65,7 @@ class JawGraspCheck:
         argmax is the best-valued candidate passing the test for the (H, W) bool `target` mask; `q` unchanged
         (as float64) when none of the top_k passes or the target is empty."""
         out = np.asarray(q, dtype=np.float64).copy()
-        self.rejected = 0
+        self.rejected, self.vetoed = 0, False
         if not target.any():
             return out
         masked = np.where(region[None] & np.isfinite(out), out, -np.inf).reshape(-1)
@@ -80,13 +84,15 @@ class JawGraspCheck:
                     out[r, row, col] = best
                 self.rejected = rank
                 return out
+        self.vetoed = True
         return out
 
 
 def make_grasp_check(name: str | None, geometry: Geometry) -> JawGraspCheck | None:
-    """The check called `name` ("none" or None: no check; "jaw": JawGraspCheck); ValueError for other names."""
+    """The check called `name` ("none" or None: no check; "jaw": JawGraspCheck; "jaw-strict": the same, strict);
+    ValueError for other names."""
     if name in (None, "none"):
         return None
-    if name == "jaw":
-        return JawGraspCheck(geometry)
+    if name in ("jaw", "jaw-strict"):
+        return JawGraspCheck(geometry, strict=name == "jaw-strict")
     raise ValueError(f"unknown grasp check {name!r} (known: {', '.join(NAMES)})")

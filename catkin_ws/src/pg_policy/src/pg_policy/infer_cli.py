@@ -11,6 +11,8 @@ import numpy as np
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    from pg_policy.grasp_check import NAMES as CHECKS
+
     p = sub.add_parser("infer", help="render a policy's Q maps and decision over a scene to PNG (no action)")
     p.add_argument("--model", default="lite",
                    help="shipped model folder name, model directory (grasp.pt + push.pt), a grasp .pt file, or a "
@@ -25,7 +27,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--grasp-filter", default=None, metavar="SPEC",
                    help="learned models: filter of Q_g before the decision (none, min3, sym+min3, ...; default: the "
                         "model's own); the grasp panel shows the filtered map")
-    p.add_argument("--grasp-check", default=None, choices=("none", "jaw"),
+    p.add_argument("--grasp-check", default=None, choices=CHECKS,
                    help="learned models: geometric check of the chosen grasp (pg_policy.grasp_check; default: the "
                         "model's own); the grasp panel shows the map before the check")
     p.set_defaults(run=_run)

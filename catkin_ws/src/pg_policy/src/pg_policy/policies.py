@@ -67,8 +67,8 @@ class PolicyOptions:
     around the target (pg_policy.futile_pushes); grasp_filter (grasp-only, learned): a pg_policy.grasp_filter spec
     applied to Q_g before the decision (None = the model metadata's thresholds.grasp_filter, else "none");
     grasp_check (learned): a pg_policy.grasp_check name ("jaw": re-rank Q_g's best cells by the heuristic's
-    jaw-footprint test while the target is visible; "none" = no check; None = the model metadata's
-    thresholds.grasp_check, else none)."""
+    jaw-footprint test while the target is visible; "jaw-strict": the same, and push (within the push budget) when
+    none passes; "none" = no check; None = the model metadata's thresholds.grasp_check, else none)."""
 
     models: tuple[Path, ...] = ()
     seed: int = 0
@@ -334,10 +334,13 @@ class LearnedPolicy(_Base):
         self._q = {"grasp": self.grasp_filter.apply(q["grasp"]), "push": q["push"]}
         spent = 0 < self.push_budget <= self.pushes_in_row
         q_grasp = self.failed.suppress(self._q["grasp"], hm)
+        threshold, self.last_note = (-math.inf if spent else self.threshold), ""
         if self.grasp_check is not None and visible:
             q_grasp = self.grasp_check.apply(q_grasp, hm, grasp_region(mask, hm.resolution), mask)
+            if self.grasp_check.strict and self.grasp_check.vetoed and not spent:
+                threshold, self.last_note = math.inf, "no grasp passes the jaw check: push"
         q_push = self.futile.suppress(self._q["push"], hm)
-        d = decide(q_grasp, q_push, mask, hm, self.prims, -math.inf if spent else self.threshold)
+        d = decide(q_grasp, q_push, mask, hm, self.prims, threshold)
         self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0
         self.last, self.last_seen = d, (hm, mask)
         return d
