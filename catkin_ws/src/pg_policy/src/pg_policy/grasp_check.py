@@ -10,7 +10,7 @@ best value and the cells ranked above it get -inf, so the grasp-or-push decision
 the same as without the check. When no candidate passes, Q_g is returned unchanged and `vetoed` is set: the strict
 variant ("jaw-strict") then tells the policy to push instead of grasping (pg_policy.policies.LearnedPolicy), as the
 heuristic baseline does when it finds no free grasp. A test-time deviation from the paper (docs/ARCHITECTURE.md);
-"jaw" is in the shipped model's metadata.
+"jaw-strict" is in the shipped model's metadata.
 """
 
 from __future__ import annotations
@@ -23,7 +23,8 @@ from pg_policy.action_geometry import grasp_z
 from pg_policy.geometry import Geometry
 from pg_policy.heightmap import Heightmap, pixel_to_world
 
-NAMES = ("none", "jaw", "jaw-strict")  # what PolicyOptions.grasp_check / `pushgrasp eval --grasp-check` accept
+STRICT = {"jaw": False, "jaw-strict": True}  # check name -> whether a veto asks the policy to push
+NAMES = ("none", *STRICT)  # what PolicyOptions.grasp_check / `pushgrasp eval --grasp-check` accept
 TOP_K = 200  # candidate cells examined per decision
 CENTRE_TOL_M = 0.01  # the learned cell may sit this far from the pad-centred line along the closing axis
 
@@ -44,6 +45,11 @@ class JawGraspCheck:
         self.name = "jaw-strict" if strict else "jaw"
         self.rejected = 0  # candidates ranked above the chosen one in the last apply() (0: the learned choice passed)
         self.vetoed = False  # the last apply() found no passing candidate among a non-empty region
+
+    @property
+    def push_instead(self) -> bool:
+        """Whether the last apply() asks the policy to push rather than grasp (strict check, vetoed)."""
+        return self.strict and self.vetoed
 
     def passes(self, hm: Heightmap, target: np.ndarray, rotation: int, row: int, col: int,
                cells_others: tuple | None = None) -> bool:
@@ -93,6 +99,6 @@ def make_grasp_check(name: str | None, geometry: Geometry) -> JawGraspCheck | No
     ValueError for other names."""
     if name in (None, "none"):
         return None
-    if name in ("jaw", "jaw-strict"):
-        return JawGraspCheck(geometry, strict=name == "jaw-strict")
+    if name in STRICT:
+        return JawGraspCheck(geometry, strict=STRICT[name])
     raise ValueError(f"unknown grasp check {name!r} (known: {', '.join(NAMES)})")

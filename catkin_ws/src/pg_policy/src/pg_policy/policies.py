@@ -337,7 +337,7 @@ class LearnedPolicy(_Base):
         threshold, self.last_note = (-math.inf if spent else self.threshold), ""
         if self.grasp_check is not None and visible:
             q_grasp = self.grasp_check.apply(q_grasp, hm, grasp_region(mask, hm.resolution), mask)
-            if self.grasp_check.strict and self.grasp_check.vetoed and not spent:
+            if self.grasp_check.push_instead and not spent:
                 threshold, self.last_note = math.inf, "no grasp passes the jaw check: push"
         q_push = self.futile.suppress(self._q["push"], hm)
         d = decide(q_grasp, q_push, mask, hm, self.prims, threshold)
