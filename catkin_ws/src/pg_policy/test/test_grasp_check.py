@@ -71,6 +71,36 @@ def test_names():
     assert make_grasp_check(None, GEO) is None and make_grasp_check("none", GEO) is None
     assert isinstance(make_grasp_check("jaw", GEO), JawGraspCheck) and not make_grasp_check("jaw", GEO).strict
     strict = make_grasp_check("jaw-strict", GEO)
-    assert strict.strict and strict.name == "jaw-strict"
+    assert strict.strict and strict.name == "jaw-strict" and not strict.walls
+    walls = make_grasp_check("jaw-walls", GEO)
+    assert walls.strict and walls.walls and walls.name == "jaw-walls"
     with pytest.raises(ValueError, match="unknown grasp check"):
         make_grasp_check("fancy", GEO)
+
+
+def _lying_half_cylinder() -> tuple[Heightmap, np.ndarray]:
+    """A half cylinder (radius 2.2 cm, 4.4 cm long) lying flat side down at the centre, its axis along y."""
+    res = GEO.heightmap.resolution
+    x = (np.arange(W) - C) * res
+    profile = np.sqrt(np.clip(0.022**2 - x**2, 0.0, None))  # height across the axis (m)
+    height = np.zeros((H, W), np.float32)
+    height[C - 11:C + 11, :] = profile[None, :]
+    target = height > 0.001
+    hm = Heightmap(np.zeros((H, W, 3), np.uint8), height, np.ones((H, W), bool), res, GEO.workspace.bounds)
+    return hm, target
+
+
+def test_walls_refuse_a_grasp_across_a_curved_profile_and_keep_the_one_along_the_axis():
+    hm, target = _lying_half_cylinder()
+    walls, footprint = make_grasp_check("jaw-walls", GEO), make_grasp_check("jaw-strict", GEO)
+    assert footprint.passes(hm, target, ALONG_X, C, C)  # the footprint alone accepts the squeeze across the curve
+    assert not walls.passes(hm, target, ALONG_X, C, C)
+    assert walls.passes(hm, target, ALONG_Y, C, C)  # the flat half-disc ends are walls
+    out = walls.apply(_q(), hm, target, target)
+    assert np.unravel_index(np.argmax(out), out.shape) == (ALONG_Y, C, C) and not walls.vetoed
+
+
+def test_walls_accept_a_box_both_ways():
+    hm, target = _scene()
+    walls = make_grasp_check("jaw-walls", GEO)
+    assert walls.passes(hm, target, ALONG_X, C, C) and walls.passes(hm, target, ALONG_Y, C, C)

@@ -73,7 +73,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                          "min3, mean5, sym+min3, ...) (default: the model metadata's, else none)")
     ev.add_argument("--grasp-check", default=None, choices=CHECKS,
                     help="learned: re-rank Q_g's best cells by the heuristic's jaw-footprint test while the target "
-                         "is visible; jaw-strict: and push (within the push budget) when none passes "
+                         "is visible; jaw-strict: and push (within the push budget) when none passes; jaw-walls: "
+                         "jaw-strict that also demands walls where the pads touch "
                          "(pg_policy.grasp_check; default: the model metadata's, else none)")
     ev.add_argument("--device", default="cpu", help="torch device of learned policies (default cpu)")
     ev.add_argument("--workers", type=int, default=1,

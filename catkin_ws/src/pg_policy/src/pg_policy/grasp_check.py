@@ -16,6 +16,7 @@ heuristic baseline does when it finds no free grasp. A test-time deviation from 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -23,26 +24,44 @@ from pg_policy.action_geometry import grasp_z
 from pg_policy.geometry import Geometry
 from pg_policy.heightmap import Heightmap, pixel_to_world
 
-STRICT = {"jaw": False, "jaw-strict": True}  # check name -> whether a veto asks the policy to push
-NAMES = ("none", *STRICT)  # what PolicyOptions.grasp_check / `pushgrasp eval --grasp-check` accept
+
+@dataclass(frozen=True)
+class CheckVariant:
+    strict: bool  # a veto (no candidate passed) asks the policy to push
+    walls: bool  # candidates must also show walls where the pads touch (module docstring)
+
+
+VARIANTS = {
+    "jaw": CheckVariant(strict=False, walls=False),
+    "jaw-strict": CheckVariant(strict=True, walls=False),
+    "jaw-walls": CheckVariant(strict=True, walls=True),
+}
+NAMES = ("none", *VARIANTS)  # what PolicyOptions.grasp_check / `pushgrasp eval --grasp-check` accept
 TOP_K = 200  # candidate cells examined per decision
 CENTRE_TOL_M = 0.01  # the learned cell may sit this far from the pad-centred line along the closing axis
+WALL_WINDOW_M = 0.002  # the ends of the target's extent between the pads searched for its wall height (one cell)
+WALL_TOL_M = 0.002  # the wall must stand this far above the fingertips
 
 
 class JawGraspCheck:
     """Re-ranks Q_g by the heuristic's jaw-footprint test (module docstring); `strict`: a veto (no candidate
-    passed) asks the policy to push. Only the last apply()'s outcome is kept (`rejected`, `vetoed`)."""
+    passed) asks the policy to push; `walls`: candidates also need walls where the pads touch. Only the last
+    apply()'s outcome is kept (`rejected`, `vetoed`)."""
 
     def __init__(self, geometry: Geometry, top_k: int = TOP_K, centre_tol_m: float = CENTRE_TOL_M,
-                 strict: bool = False) -> None:
+                 strict: bool = False, walls: bool = False, wall_window_m: float = WALL_WINDOW_M,
+                 wall_tol_m: float = WALL_TOL_M) -> None:
         from pg_policy.heuristic import HeuristicPlanner
 
-        if top_k < 1 or centre_tol_m < 0:
-            raise ValueError(f"grasp check needs top_k >= 1 and centre_tol_m >= 0, got {top_k}, {centre_tol_m}")
+        if top_k < 1 or centre_tol_m < 0 or wall_window_m < 0:
+            raise ValueError(f"grasp check needs top_k >= 1, centre_tol_m >= 0 and wall_window_m >= 0, got {top_k}, "
+                             f"{centre_tol_m}, {wall_window_m}")
         self.planner = HeuristicPlanner(geometry)
         self.prims = geometry.primitives
         self.top_k, self.centre_tol, self.strict = top_k, centre_tol_m, strict
-        self.name = "jaw-strict" if strict else "jaw"
+        self.walls, self.wall_window, self.wall_tol = walls, wall_window_m, wall_tol_m
+        self.name = next((n for n, v in VARIANTS.items() if v == CheckVariant(strict, walls)),
+                         f"jaw(strict={strict}, walls={walls})")
         self.rejected = 0  # candidates ranked above the chosen one in the last apply() (0: the learned choice passed)
         self.vetoed = False  # the last apply() found no passing candidate among a non-empty region
 
@@ -64,7 +83,24 @@ class JawGraspCheck:
         if fit is None or fit[0] < 0:
             return False
         u = np.array([math.cos(yaw), math.sin(yaw)])
-        return abs(float((fit[1] - centre) @ u)) <= self.centre_tol
+        if abs(float((fit[1] - centre) @ u)) > self.centre_tol:
+            return False
+        return not self.walls or self.wall_height(cells.xy[t], cells.h[t], fit[1], yaw) >= zg + self.wall_tol
+
+    def wall_height(self, t_xy: np.ndarray, t_h: np.ndarray, centre: np.ndarray, yaw: float) -> float:
+        """The lower of the target's two wall heights (m) where the pads of a grasp at `yaw` through `centre` touch:
+        the highest of the (M, 2) target cells `t_xy` (heights `t_h`) between the pads and within wall_window_m of
+        either end of the target's extent along the closing axis."""
+        u = np.array([math.cos(yaw), math.sin(yaw)])
+        v = np.array([-u[1], u[0]])
+        rel = t_xy - centre
+        band = np.abs(rel @ v) <= self.planner.finger_w / 2 + self.planner.p.margin
+        if not band.any():
+            return 0.0
+        s, h = rel[band] @ u, t_h[band]
+        low = h[s <= s.min() + self.wall_window].max()
+        high = h[s >= s.max() - self.wall_window].max()
+        return float(min(low, high))
 
     def apply(self, q: np.ndarray, hm: Heightmap, region: np.ndarray, target: np.ndarray) -> np.ndarray:
         """(R, H, W) float64 copy of `q` re-ranked inside the (H, W) bool `region` (the grasp region) so that its
@@ -95,10 +131,11 @@ class JawGraspCheck:
 
 
 def make_grasp_check(name: str | None, geometry: Geometry) -> JawGraspCheck | None:
-    """The check called `name` ("none" or None: no check; "jaw": JawGraspCheck; "jaw-strict": the same, strict);
-    ValueError for other names."""
+    """The check called `name` ("none" or None: no check; else the JawGraspCheck of VARIANTS[name]); ValueError for
+    other names."""
     if name in (None, "none"):
         return None
-    if name in STRICT:
-        return JawGraspCheck(geometry, strict=STRICT[name])
+    if name in VARIANTS:
+        v = VARIANTS[name]
+        return JawGraspCheck(geometry, strict=v.strict, walls=v.walls)
     raise ValueError(f"unknown grasp check {name!r} (known: {', '.join(NAMES)})")

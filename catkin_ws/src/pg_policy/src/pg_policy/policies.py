@@ -68,7 +68,8 @@ class PolicyOptions:
     applied to Q_g before the decision (None = the model metadata's thresholds.grasp_filter, else "none");
     grasp_check (learned): a pg_policy.grasp_check name ("jaw": re-rank Q_g's best cells by the heuristic's
     jaw-footprint test while the target is visible; "jaw-strict": the same, and push (within the push budget) when
-    none passes; "none" = no check; None = the model metadata's thresholds.grasp_check, else none)."""
+    none passes; "jaw-walls": "jaw-strict" that also demands walls where the pads touch; "none" = no check;
+    None = the model metadata's thresholds.grasp_check, else none)."""
 
     models: tuple[Path, ...] = ()
     seed: int = 0

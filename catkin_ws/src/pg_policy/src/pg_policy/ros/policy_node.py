@@ -5,8 +5,8 @@ pg_policy.target_loop.TargetLoop.
 
 Private parameters (defaults): ~policy ("lite", the shipped model; a registry name, a shipped model folder name, a
 model directory or a TorchScript file), ~grasp_threshold (from the model), ~grasp_filter (from the model; a
-pg_policy.grasp_filter spec such as "none" or "min3"), ~grasp_check (from the model; "none", "jaw" or "jaw-strict":
-pg_policy.grasp_check), ~heightmap_timeout (5.0 wall s),
+pg_policy.grasp_filter spec such as "none" or "min3"), ~grasp_check (from the model; "none", "jaw", "jaw-strict" or
+"jaw-walls": pg_policy.grasp_check), ~heightmap_timeout (5.0 wall s),
 ~primitive_timeout (60.0 s per primitive), ~max_actions (30), ~max_failed_grasps (5), ~call_timeout (600 wall s),
 ~execute_service ("/pg/execute_primitive"), ~dry_run (false: grasp_target refused; every new heightmap is decided
 on and published on /pg/dry_run/decisions).
