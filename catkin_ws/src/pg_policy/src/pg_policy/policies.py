@@ -69,7 +69,9 @@ class PolicyOptions:
     grasp_check (learned): a pg_policy.grasp_check name ("jaw": re-rank Q_g's best cells by the heuristic's
     jaw-footprint test while the target is visible; "jaw-strict": the same, and push (within the push budget) when
     none passes; "jaw-walls": "jaw-strict" that also demands walls where the pads touch; "none" = no check;
-    None = the model metadata's thresholds.grasp_check, else none)."""
+    None = the model metadata's thresholds.grasp_check, else none); edge_guard (learned): re-rank Q_p's best cells
+    so that the push does not carry the target out of the workspace (pg_policy.edge_guard; None = the model
+    metadata's thresholds.edge_guard, else off)."""
 
     models: tuple[Path, ...] = ()
     seed: int = 0
@@ -81,6 +83,7 @@ class PolicyOptions:
     futile_push_radius_m: float | None = None
     grasp_filter: str | None = None
     grasp_check: str | None = None
+    edge_guard: bool | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -236,6 +239,15 @@ def grasp_check_of(opts: PolicyOptions, metadata: Any, geometry: Geometry) -> An
     return make_grasp_check(name, geometry)
 
 
+def edge_guard_of(opts: PolicyOptions, metadata: Any, geometry: Geometry) -> Any:
+    """A pg_policy.edge_guard.EdgeGuard when `opts.edge_guard` (else the grasp model's thresholds.edge_guard) is
+    true, else None."""
+    from pg_policy.edge_guard import EdgeGuard
+
+    on = opts.edge_guard if opts.edge_guard is not None else bool(metadata_thresholds(metadata).get("edge_guard"))
+    return EdgeGuard(geometry) if on else None
+
+
 def _goal_or_all(obs: Any) -> tuple[np.ndarray, bool]:
     """(the target mask, True) when the target is visible; else (every object cell, False): goal-agnostic, to
     uncover it."""
@@ -312,6 +324,7 @@ class LearnedPolicy(_Base):
         self.last_seen: tuple[Heightmap, np.ndarray] | None = None  # the heightmap and mask the last decision used
         self.grasp_filter = grasp_filter_of(opts, self.nets.metadata["grasp"])
         self.grasp_check = grasp_check_of(opts, self.nets.metadata["grasp"], self.geometry)
+        self.edge_guard = edge_guard_of(opts, self.nets.metadata["grasp"], self.geometry)
         self.last: Decision | None = None
 
     def reset(self, seed: int | None = None) -> None:
@@ -322,7 +335,7 @@ class LearnedPolicy(_Base):
         self.last, self.last_seen = None, None
 
     def act(self, obs: Any) -> Decision:
-        from pg_policy.decision import decide, grasp_region
+        from pg_policy.decision import decide, grasp_region, push_region
 
         hm = obs.heightmap
         mask, visible = _goal_or_all(obs)
@@ -341,6 +354,8 @@ class LearnedPolicy(_Base):
             if self.grasp_check.push_instead and not spent:
                 threshold, self.last_note = math.inf, "no grasp passes the jaw check: push"
         q_push = self.futile.suppress(self._q["push"], hm)
+        if self.edge_guard is not None and visible:
+            q_push = self.edge_guard.apply(q_push, hm, push_region(mask, hm.resolution), mask)
         d = decide(q_grasp, q_push, mask, hm, self.prims, threshold)
         self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0
         self.last, self.last_seen = d, (hm, mask)

@@ -1,0 +1,93 @@
+"""A geometric guard on the learned push: do not carry the target towards the edge of the workspace.
+
+The workspace box (pg_policy.geometry, `world` metres) bounds every commanded pose, and the heightmap covers
+exactly that box: a target pushed to within a few centimetres of its edge is partly out of view and its grasps
+are refused or clipped, and the push net (trained on scenes that rarely reach the edge) readily pushes it there;
+most failed random-scene trials of the `jaw-walls` protocol ended that way (docs/RESULTS.md).
+
+Prediction, per push candidate (rotation r: the closed fingers start at the cell centre and travel
+prims.push_length along u = (cos yaw, sin yaw), yaw = r * 2 pi / R): the target's visible cells inside the
+finger corridor (|v offset| <= finger width / 2, 0 <= u offset <= push length) are met at the nearest one, and
+the target is carried the rest of the way (neighbours, rotation and sliding ignored). A push is refused when the
+target's predicted centre ends outside the workspace shrunk by `margin_m` and farther outside it than now, so
+pushes back inwards, along the edge and pushes that miss the target stay allowed. Like pg_policy.grasp_check it
+only re-ranks: Q_p's best cells in the push region are walked in descending value (at most `top_k`), the first
+allowed one takes the best value and those ranked above it get -inf; when none is allowed Q_p is unchanged.
+A test-time deviation from the paper (docs/ARCHITECTURE.md).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pg_policy.geometry import Geometry
+from pg_policy.heightmap import Heightmap
+
+MARGIN_M = 0.03  # the predicted target centre should stay this far inside the workspace (the heuristic's edge_margin)
+TOP_K = 200  # push candidates examined per decision
+
+
+class EdgeGuard:
+    """Re-ranks Q_p so that the chosen push does not carry the target out of the shrunk workspace (module docstring).
+    `rejected` is the number of candidates ranked above the chosen one in the last apply()."""
+
+    def __init__(self, geometry: Geometry, margin_m: float = MARGIN_M, top_k: int = TOP_K) -> None:
+        if margin_m < 0 or top_k < 1:
+            raise ValueError(f"edge guard needs margin_m >= 0 and top_k >= 1, got {margin_m}, {top_k}")
+        ws = geometry.workspace
+        self.lo = np.array([ws.x[0], ws.y[0]]) + margin_m
+        self.hi = np.array([ws.x[1], ws.y[1]]) - margin_m
+        self.length = geometry.primitives.push_length
+        self.half_width = geometry.gripper.finger_size[1] / 2
+        self.rotations = geometry.heightmap.rotations
+        self.top_k = top_k
+        self.rejected = 0
+
+    def outside(self, xy: np.ndarray) -> float:
+        """How far (m) the point `xy` lies outside the shrunk workspace (0 inside)."""
+        return float(np.linalg.norm(np.maximum(np.maximum(self.lo - xy, xy - self.hi), 0.0)))
+
+    def carried(self, t_xy: np.ndarray, start: np.ndarray, yaw: float) -> float:
+        """Distance (m) a push from `start` along `yaw` carries the target whose cells are the (M, 2) `t_xy`."""
+        u = np.array([math.cos(yaw), math.sin(yaw)])
+        rel = t_xy - start
+        s, t = rel @ u, rel @ np.array([-u[1], u[0]])
+        hit = (np.abs(t) <= self.half_width) & (s >= 0.0) & (s <= self.length)
+        return float(self.length - s[hit].min()) if hit.any() else 0.0
+
+    def allows(self, t_xy: np.ndarray, start: np.ndarray, yaw: float) -> bool:
+        """Whether the push keeps the target's predicted centre inside the shrunk workspace or brings it closer."""
+        centre = t_xy.mean(axis=0)
+        after = centre + self.carried(t_xy, start, yaw) * np.array([math.cos(yaw), math.sin(yaw)])
+        out = self.outside(after)
+        return out <= 0.0 or out <= self.outside(centre) + 1e-9
+
+    def apply(self, q: np.ndarray, hm: Heightmap, region: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """(R, H, W) float64 copy of the push map `q`, re-ranked inside the (H, W) bool `region` so that its argmax is
+        the best-valued allowed push for the (H, W) bool `target` mask; `q` unchanged (as float64) when the target
+        is empty or none of the top_k is allowed."""
+        out = np.asarray(q, dtype=np.float64).copy()
+        self.rejected = 0
+        if not target.any():
+            return out
+        rows, cols = np.nonzero(target)
+        res, b = hm.resolution, hm.bounds
+        t_xy = np.stack([b[0, 0] + (cols + 0.5) * res, b[1, 0] + (rows + 0.5) * res], axis=1)
+        masked = np.where(region[None] & np.isfinite(out), out, -np.inf).reshape(-1)
+        k = min(self.top_k, int(np.isfinite(masked).sum()))
+        if k == 0:
+            return out
+        order = np.argpartition(-masked, k - 1)[:k]
+        order = order[np.argsort(-masked[order], kind="stable")]
+        for rank, flat in enumerate(order):
+            r, row, col = (int(i) for i in np.unravel_index(int(flat), out.shape))
+            start = np.array([b[0, 0] + (col + 0.5) * res, b[1, 0] + (row + 0.5) * res])
+            if self.allows(t_xy, start, r * 2 * math.pi / self.rotations):
+                if rank:
+                    out.reshape(-1)[order[:rank]] = -np.inf
+                    out[r, row, col] = masked[order[0]]
+                self.rejected = rank
+                return out
+        return out

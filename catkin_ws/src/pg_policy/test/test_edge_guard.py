@@ -1,0 +1,78 @@
+"""pg_policy.edge_guard: pushes that would carry the target out of the workspace give way to the best other push."""
+
+import math
+
+import numpy as np
+import pytest
+
+from pg_policy.edge_guard import EdgeGuard
+from pg_policy.geometry import load
+from pg_policy.heightmap import Heightmap, world_to_pixel
+
+GEO = load()
+H = W = 224
+PLUS_X, PLUS_Y, MINUS_Y = 0, 4, 12  # rotation indices: pushes along +x, +y and -y
+
+
+def _target_at(x: float, y: float) -> tuple[Heightmap, np.ndarray]:
+    """A 3 x 3 cm target centred at (x, y) m."""
+    height = np.zeros((H, W), np.float32)
+    r, c = world_to_pixel(x, y, GEO.workspace.bounds, GEO.heightmap.resolution)
+    height[r - 7:r + 8, c - 7:c + 8] = 0.03
+    hm = Heightmap(np.zeros((H, W, 3), np.uint8), height, np.ones((H, W), bool), GEO.heightmap.resolution,
+                   GEO.workspace.bounds)
+    return hm, height > 0
+
+
+def _q(favourite: tuple[int, int, int], second: tuple[int, int, int]) -> np.ndarray:
+    q = np.zeros((16, H, W))
+    q[favourite] = 1.0
+    q[second] = 0.5
+    return q
+
+
+def _cell(x: float, y: float) -> tuple[int, int]:
+    return world_to_pixel(x, y, GEO.workspace.bounds, GEO.heightmap.resolution)
+
+
+def test_a_push_towards_the_edge_gives_way_to_the_best_push_that_keeps_the_target_inside():
+    hm, target = _target_at(0.0, -0.15)  # 4.4 cm inside the 3 cm margin; a full push along -y ends outside
+    favourite, second = (MINUS_Y, *_cell(0.0, -0.12)), (PLUS_Y, *_cell(0.0, -0.18))
+    guard = EdgeGuard(GEO)
+    out = guard.apply(_q(favourite, second), hm, np.ones((H, W), bool), target)
+    assert np.unravel_index(np.argmax(out), out.shape) == second and out.max() == 1.0
+    assert out[favourite] == -np.inf and guard.rejected == 1
+
+
+def test_pushes_in_the_middle_or_along_the_edge_or_missing_the_target_are_kept():
+    guard = EdgeGuard(GEO)
+    for (x, y), favourite in (((0.0, 0.0), (MINUS_Y, *_cell(0.0, 0.03))),  # middle: ends at y -0.1, inside
+                              ((0.0, -0.2), (PLUS_X, *_cell(-0.03, -0.2))),  # along the edge: no farther out
+                              ((0.0, -0.15), (MINUS_Y, *_cell(0.06, -0.12)))):  # misses the target
+        hm, target = _target_at(x, y)
+        q = _q(favourite, (PLUS_Y, 0, 0))
+        np.testing.assert_array_equal(guard.apply(q, hm, np.ones((H, W), bool), target), q)
+        assert guard.rejected == 0
+
+
+def test_carried_distance_is_the_push_left_after_contact():
+    guard = EdgeGuard(GEO)
+    t_xy = np.array([[0.05, 0.0], [0.06, 0.0]])
+    assert guard.carried(t_xy, np.zeros(2), 0.0) == pytest.approx(GEO.primitives.push_length - 0.05)
+    assert guard.carried(t_xy, np.zeros(2), math.pi / 2) == 0.0  # the corridor along +y misses it
+    assert guard.outside(np.zeros(2)) == 0.0 and guard.outside(np.array([0.0, -0.224])) == pytest.approx(0.03)
+
+
+def test_bad_parameters_are_refused():
+    with pytest.raises(ValueError, match="edge guard"):
+        EdgeGuard(GEO, margin_m=-0.01)
+
+
+def test_the_policy_takes_the_guard_from_its_options_else_from_the_model_metadata():
+    from pg_policy.policies import PolicyOptions, edge_guard_of
+
+    on = {"thresholds": {"edge_guard": True}}
+    assert edge_guard_of(PolicyOptions(), {}, GEO) is None
+    assert isinstance(edge_guard_of(PolicyOptions(), on, GEO), EdgeGuard)
+    assert edge_guard_of(PolicyOptions(edge_guard=False), on, GEO) is None
+    assert isinstance(edge_guard_of(PolicyOptions(edge_guard=True), {}, GEO), EdgeGuard)
