@@ -278,8 +278,9 @@ def test_grasp_check_comes_from_the_option_else_the_model_metadata(model_dir, tm
 def test_the_shipped_model_brings_its_test_time_rules():
     # docs/RESULTS.md reports `lite` with these; `make train` exports them (scripts/train_recipe.sh)
     lite = make_policy("lite")
-    assert str(lite.grasp_filter) == "min3" and lite.grasp_check.name == "jaw-strict" and lite.grasp_check.strict
+    assert str(lite.grasp_filter) == "min3" and lite.grasp_check.name == "jaw-walls" and lite.grasp_check.strict
     assert lite.threshold == pytest.approx(0.7) and lite.push_budget == 3
+    assert lite.grasp_check.walls and lite.edge_guard is None  # the edge guard is off unless asked for
     assert make_policy("lite", PolicyOptions(grasp_check="none")).grasp_check is None
 
 

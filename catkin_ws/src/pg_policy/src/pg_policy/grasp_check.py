@@ -9,8 +9,12 @@ and the cell lies within `centre_tol_m` of the pad-centred grasp line. It only r
 best value and the cells ranked above it get -inf, so the grasp-or-push decision (masked max vs the threshold) is
 the same as without the check. When no candidate passes, Q_g is returned unchanged and `vetoed` is set: the strict
 variant ("jaw-strict") then tells the policy to push instead of grasping (pg_policy.policies.LearnedPolicy), as the
-heuristic baseline does when it finds no free grasp. A test-time deviation from the paper (docs/ARCHITECTURE.md);
-"jaw-strict" is in the shipped model's metadata.
+heuristic baseline does when it finds no free grasp. "jaw-walls" is "jaw-strict" that also demands walls where the
+pads touch: the target's highest cell within `wall_window_m` of each end of its extent between the pads must stand
+at least `wall_tol_m` above the fingertips (the grasp z). A top-down heightmap sees the silhouette's edge at the
+height of the target's widest part, so a low edge means the target narrows above the fingertips (a half cylinder
+or a wedge lying flat): the pads would meet a slope and squeeze it down and out. A test-time deviation from the
+paper (docs/ARCHITECTURE.md); "jaw-walls" is in the shipped model's metadata.
 """
 
 from __future__ import annotations
