@@ -24,6 +24,7 @@ import numpy as np
 
 from pg_policy.geometry import Geometry
 from pg_policy.heightmap import Heightmap
+from pg_policy.rerank import rerank
 
 MARGIN_M = 0.03  # the predicted target centre should stay this far inside the workspace (the heuristic's edge_margin)
 TOP_K = 200  # push candidates examined per decision
@@ -68,26 +69,17 @@ class EdgeGuard:
         """(R, H, W) float64 copy of the push map `q`, re-ranked inside the (H, W) bool `region` so that its argmax is
         the best-valued allowed push for the (H, W) bool `target` mask; `q` unchanged (as float64) when the target
         is empty or none of the top_k is allowed."""
-        out = np.asarray(q, dtype=np.float64).copy()
         self.rejected = 0
         if not target.any():
-            return out
+            return np.asarray(q, dtype=np.float64).copy()
         rows, cols = np.nonzero(target)
         res, b = hm.resolution, hm.bounds
         t_xy = np.stack([b[0, 0] + (cols + 0.5) * res, b[1, 0] + (rows + 0.5) * res], axis=1)
-        masked = np.where(region[None] & np.isfinite(out), out, -np.inf).reshape(-1)
-        k = min(self.top_k, int(np.isfinite(masked).sum()))
-        if k == 0:
-            return out
-        order = np.argpartition(-masked, k - 1)[:k]
-        order = order[np.argsort(-masked[order], kind="stable")]
-        for rank, flat in enumerate(order):
-            r, row, col = (int(i) for i in np.unravel_index(int(flat), out.shape))
+
+        def allowed(r: int, row: int, col: int) -> bool:
             start = np.array([b[0, 0] + (col + 0.5) * res, b[1, 0] + (row + 0.5) * res])
-            if self.allows(t_xy, start, r * 2 * math.pi / self.rotations):
-                if rank:
-                    out.reshape(-1)[order[:rank]] = -np.inf
-                    out[r, row, col] = masked[order[0]]
-                self.rejected = rank
-                return out
+            return self.allows(t_xy, start, r * 2 * math.pi / self.rotations)
+
+        out, rank = rerank(q, region, allowed, self.top_k)
+        self.rejected = rank or 0
         return out

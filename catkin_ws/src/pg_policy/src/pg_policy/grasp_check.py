@@ -27,6 +27,7 @@ import numpy as np
 from pg_policy.action_geometry import grasp_z
 from pg_policy.geometry import Geometry
 from pg_policy.heightmap import Heightmap, pixel_to_world
+from pg_policy.rerank import rerank
 
 
 @dataclass(frozen=True)
@@ -110,27 +111,15 @@ class JawGraspCheck:
         """(R, H, W) float64 copy of `q` re-ranked inside the (H, W) bool `region` (the grasp region) so that its
         argmax is the best-valued candidate passing the test for the (H, W) bool `target` mask; `q` unchanged
         (as float64) when none of the top_k passes or the target is empty."""
-        out = np.asarray(q, dtype=np.float64).copy()
         self.rejected, self.vetoed = 0, False
         if not target.any():
-            return out
-        masked = np.where(region[None] & np.isfinite(out), out, -np.inf).reshape(-1)
-        k = min(self.top_k, int(np.isfinite(masked).sum()))
-        if k == 0:
-            return out
-        order = np.argpartition(-masked, k - 1)[:k]
-        order = order[np.argsort(-masked[order], kind="stable")]
+            return np.asarray(q, dtype=np.float64).copy()
         context = self.planner.around(hm, target)
-        for rank, flat in enumerate(order):
-            r, row, col = np.unravel_index(int(flat), out.shape)
-            if self.passes(hm, target, int(r), int(row), int(col), context):
-                if rank:
-                    best = masked[order[0]]
-                    out.reshape(-1)[order[:rank]] = -np.inf
-                    out[r, row, col] = best
-                self.rejected = rank
-                return out
-        self.vetoed = True
+        out, rank = rerank(q, region, lambda r, row, col: self.passes(hm, target, r, row, col, context), self.top_k)
+        if rank is None:
+            self.vetoed = bool(np.isfinite(np.where(region[None], q, -np.inf)).any())
+        else:
+            self.rejected = rank
         return out
 
 
