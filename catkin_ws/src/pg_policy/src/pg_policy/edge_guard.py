@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from pg_policy.geometry import Geometry
-from pg_policy.heightmap import Heightmap
+from pg_policy.heightmap import Heightmap, cell_centres, pixel_to_world
 from pg_policy.rerank import rerank
 
 MARGIN_M = 0.03  # the predicted target centre should stay this far inside the workspace (the heuristic's edge_margin)
@@ -72,12 +72,10 @@ class EdgeGuard:
         self.rejected = 0
         if not target.any():
             return np.asarray(q, dtype=np.float64).copy()
-        rows, cols = np.nonzero(target)
-        res, b = hm.resolution, hm.bounds
-        t_xy = np.stack([b[0, 0] + (cols + 0.5) * res, b[1, 0] + (rows + 0.5) * res], axis=1)
+        t_xy = cell_centres(*np.nonzero(target), hm.bounds, hm.resolution)
 
         def allowed(r: int, row: int, col: int) -> bool:
-            start = np.array([b[0, 0] + (col + 0.5) * res, b[1, 0] + (row + 0.5) * res])
+            start = np.array(pixel_to_world(row, col, hm.bounds, hm.resolution))
             return self.allows(t_xy, start, r * 2 * math.pi / self.rotations)
 
         out, rank = rerank(q, region, allowed, self.top_k)

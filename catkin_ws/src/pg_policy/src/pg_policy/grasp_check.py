@@ -116,10 +116,8 @@ class JawGraspCheck:
             return np.asarray(q, dtype=np.float64).copy()
         context = self.planner.around(hm, target)
         out, rank = rerank(q, region, lambda r, row, col: self.passes(hm, target, r, row, col, context), self.top_k)
-        if rank is None:
-            self.vetoed = bool(np.isfinite(np.where(region[None], q, -np.inf)).any())
-        else:
-            self.rejected = rank
+        self.rejected = rank or 0
+        self.vetoed = rank is None and bool((region[None] & np.isfinite(out)).any())  # candidates, none passed
         return out
 
 

@@ -99,6 +99,12 @@ def pixel_to_world(row: int, col: int, bounds: np.ndarray, resolution: float) ->
     return float(bounds[0, 0] + (col + 0.5) * resolution), float(bounds[1, 0] + (row + 0.5) * resolution)
 
 
+def cell_centres(rows: np.ndarray, cols: np.ndarray, bounds: np.ndarray, resolution: float) -> np.ndarray:
+    """(N, 2) cell centres (x, y) in `world` of the cells (rows[i], cols[i]); pixel_to_world for many cells."""
+    rows, cols = np.asarray(rows), np.asarray(cols)
+    return np.stack([bounds[0, 0] + (cols + 0.5) * resolution, bounds[1, 0] + (rows + 0.5) * resolution], axis=-1)
+
+
 def world_to_pixel(x: float, y: float, bounds: np.ndarray, resolution: float) -> tuple[int, int]:
     """(row, col) of the cell holding world point (x, y); may fall outside the map."""
     return int(np.floor((y - bounds[1, 0]) / resolution)), int(np.floor((x - bounds[0, 0]) / resolution))
