@@ -55,6 +55,29 @@ def test_pushes_in_the_middle_or_along_the_edge_or_missing_the_target_are_kept()
         assert guard.rejected == 0
 
 
+def _with_block(hm: Heightmap, x0: float, x1: float, y0: float, y1: float) -> Heightmap:
+    """`hm` with a 3 cm high block over [x0, x1] x [y0, y1] m added."""
+    height = hm.height.copy()
+    (r0, c0), (r1, c1) = _cell(x0, y0), _cell(x1, y1)
+    height[min(r0, r1):max(r0, r1) + 1, min(c0, c1):max(c0, c1) + 1] = 0.03
+    return Heightmap(hm.color, height, hm.valid, hm.resolution, hm.bounds)
+
+
+def test_a_push_into_a_neighbour_touching_the_target_carries_the_target_with_it():
+    hm, target = _target_at(0.0, -0.15)  # the target spans y -0.165 .. -0.135
+    touching = _with_block(hm, -0.015, 0.015, -0.133, -0.06)  # a neighbour on the target's +y side, 1 cell apart
+    apart = _with_block(hm, -0.015, 0.015, -0.121, -0.06)  # the same neighbour 6 cells (12 mm) away
+    # along -y from y = +0.002 the fingers stop 0.007 short of the target but meet the neighbour after 0.06
+    favourite, second = (MINUS_Y, *_cell(0.0, 0.002)), (PLUS_Y, *_cell(0.0, -0.18))
+    guard = EdgeGuard(GEO)
+    assert guard.apply(_q(favourite, second), touching, np.ones((H, W), bool), target)[favourite] == -np.inf
+    q = _q(favourite, second)
+    np.testing.assert_array_equal(guard.apply(q, apart, np.ones((H, W), bool), target), q)
+    cluster = guard.cluster(touching.height, target)
+    assert cluster[target].all() and cluster.sum() > target.sum()
+    assert guard.cluster(apart.height, target).sum() == target.sum()
+
+
 def test_carried_distance_is_the_push_left_after_contact():
     guard = EdgeGuard(GEO)
     t_xy = np.array([[0.05, 0.0], [0.06, 0.0]])
@@ -66,6 +89,8 @@ def test_carried_distance_is_the_push_left_after_contact():
 def test_bad_parameters_are_refused():
     with pytest.raises(ValueError, match="edge guard"):
         EdgeGuard(GEO, margin_m=-0.01)
+    with pytest.raises(ValueError, match="edge guard"):
+        EdgeGuard(GEO, gap_cells=-1)
 
 
 def test_the_policy_takes_the_guard_from_its_options_else_from_the_model_metadata():
