@@ -79,6 +79,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ev.add_argument("--edge-guard", default=None, choices=("on", "off"),
                     help="learned: re-rank Q_p's best cells so that the push does not carry the target out of the "
                          "workspace (pg_policy.edge_guard; default: the model metadata's, else off)")
+    ev.add_argument("--push-landing", default=None, choices=("on", "off"),
+                    help="learned: re-rank Q_p's best cells so that the closed fingers do not come down on top of "
+                         "an object (pg_policy.push_landing; default: the model metadata's, else off)")
     ev.add_argument("--device", default="cpu", help="torch device of learned policies (default cpu)")
     ev.add_argument("--workers", type=int, default=1,
                     help="parallel simulator processes (default 1); results do not depend on it")
@@ -164,7 +167,8 @@ def _run(args: argparse.Namespace) -> int:
                          failed_grasp_radius_m=args.failed_grasp_radius,
                          futile_push_radius_m=args.futile_push_radius, grasp_filter=args.grasp_filter,
                          grasp_check=args.grasp_check,
-                         edge_guard=None if args.edge_guard is None else args.edge_guard == "on")
+                         edge_guard=None if args.edge_guard is None else args.edge_guard == "on",
+                         push_landing=None if args.push_landing is None else args.push_landing == "on")
     policy = make_policy(args.policy, opts)  # validates the name and the model files before any simulation
     paths = getattr(policy, "model_paths", None)
     if paths:  # workers and the record get the resolved files
@@ -173,6 +177,7 @@ def _run(args: argparse.Namespace) -> int:
     grasp_filter = getattr(policy, "grasp_filter", None)  # as resolved (flag, else model metadata)
     grasp_check = getattr(getattr(policy, "grasp_check", None), "name", "none")  # likewise
     edge_guard = getattr(policy, "edge_guard", None) is not None  # likewise
+    push_landing = getattr(policy, "push_landing", None) is not None  # likewise
     del policy
     plan = EvalPlan(tuple(scenes), args.trials, args.seed, Limits(args.max_actions, args.max_failed_grasps),
                     args.jitter_xy, math.radians(args.jitter_yaw))
@@ -184,7 +189,7 @@ def _run(args: argparse.Namespace) -> int:
         "jitter_xy_m": args.jitter_xy, "jitter_yaw_deg": args.jitter_yaw, "grasp_threshold": args.grasp_threshold,
         "push_budget": args.push_budget, "failed_grasp_radius_m": args.failed_grasp_radius,
         "futile_push_radius_m": args.futile_push_radius, "grasp_check": grasp_check,
-        "edge_guard": edge_guard,
+        "edge_guard": edge_guard, "push_landing": push_landing,
         "grasp_filter": None if grasp_filter is None else str(grasp_filter),
         "geometry_config": str(geometry.path), "primitives": asdict(geometry.primitives),
         "git_commit": git_commit(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "workers": args.workers,

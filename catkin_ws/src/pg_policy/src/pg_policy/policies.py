@@ -71,7 +71,9 @@ class PolicyOptions:
     none passes; "jaw-walls": "jaw-strict" that also demands walls where the pads touch; "none" = no check;
     None = the model metadata's thresholds.grasp_check, else none); edge_guard (learned): re-rank Q_p's best cells
     so that the push does not carry the target out of the workspace (pg_policy.edge_guard; None = the model
-    metadata's thresholds.edge_guard, else off)."""
+    metadata's thresholds.edge_guard, else off); push_landing (learned): re-rank Q_p's best cells so that the
+    closed fingers do not come down on top of an object (pg_policy.push_landing; None = the model metadata's
+    thresholds.push_landing, else off)."""
 
     models: tuple[Path, ...] = ()
     seed: int = 0
@@ -84,6 +86,7 @@ class PolicyOptions:
     grasp_filter: str | None = None
     grasp_check: str | None = None
     edge_guard: bool | None = None
+    push_landing: bool | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -248,6 +251,16 @@ def edge_guard_of(opts: PolicyOptions, metadata: Any, geometry: Geometry) -> Any
     return EdgeGuard(geometry) if on else None
 
 
+def push_landing_of(opts: PolicyOptions, metadata: Any, geometry: Geometry) -> Any:
+    """A pg_policy.push_landing.LandingGuard when `opts.push_landing` (else the grasp model's
+    thresholds.push_landing) is true, else None."""
+    from pg_policy.push_landing import LandingGuard
+
+    on = opts.push_landing if opts.push_landing is not None else \
+        bool(metadata_thresholds(metadata).get("push_landing"))
+    return LandingGuard(geometry) if on else None
+
+
 def _goal_or_all(obs: Any) -> tuple[np.ndarray, bool]:
     """(the target mask, True) when the target is visible; else (every object cell, False): goal-agnostic, to
     uncover it."""
@@ -325,6 +338,7 @@ class LearnedPolicy(_Base):
         self.grasp_filter = grasp_filter_of(opts, self.nets.metadata["grasp"])
         self.grasp_check = grasp_check_of(opts, self.nets.metadata["grasp"], self.geometry)
         self.edge_guard = edge_guard_of(opts, self.nets.metadata["grasp"], self.geometry)
+        self.push_landing = push_landing_of(opts, self.nets.metadata["grasp"], self.geometry)
         self.last: Decision | None = None
 
     def reset(self, seed: int | None = None) -> None:
@@ -354,6 +368,8 @@ class LearnedPolicy(_Base):
             if self.grasp_check.push_instead and not spent:
                 threshold, self.last_note = math.inf, "no grasp passes the jaw check: push"
         q_push = self.futile.suppress(self._q["push"], hm)
+        if self.push_landing is not None and visible:
+            q_push = self.push_landing.apply(q_push, hm, push_region(mask, hm.resolution))
         if self.edge_guard is not None and visible:
             q_push = self.edge_guard.apply(q_push, hm, push_region(mask, hm.resolution), mask)
         d = decide(q_grasp, q_push, mask, hm, self.prims, threshold)
