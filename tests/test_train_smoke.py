@@ -168,6 +168,10 @@ def test_alternate_push_budget_forces_grasps_and_is_exported(run_dir, tmp_path, 
     assert main(["export", "--run", str(out), "--out", str(tmp_path / "checked"), "--grasp-check", "jaw"]) == 0
     _, meta = load_qnet(tmp_path / "checked" / "grasp.pt")
     assert meta["thresholds"] == {"grasp_q": 1e9, "push_budget": 1, "grasp_check": "jaw"}
+    assert main(["export", "--run", str(out), "--out", str(tmp_path / "guarded"), "--edge-guard", "on",
+                 "--push-landing", "off"]) == 0
+    _, meta = load_qnet(tmp_path / "guarded" / "push.pt")
+    assert meta["thresholds"] == {"grasp_q": 1e9, "push_budget": 1, "edge_guard": True, "push_landing": False}
     assert main(["export", "--run", str(out), "--out", str(tmp_path / "bad"), "--grasp-filter", "max3"]) == 2
     assert "bad grasp filter" in capsys.readouterr().err and not (tmp_path / "bad").exists()
 

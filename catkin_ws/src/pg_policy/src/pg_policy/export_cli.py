@@ -29,6 +29,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--grasp-check", default=None, choices=CHECKS,
                    help="geometric check of the chosen grasp stored in the metadata (pg_policy.grasp_check; "
                         "default: none, the paper's rule)")
+    p.add_argument("--edge-guard", default=None, choices=("on", "off"),
+                   help="store thresholds.edge_guard: re-rank the learned push away from the workspace's edge "
+                        "(pg_policy.edge_guard; default: not stored = off, the paper's rule)")
+    p.add_argument("--push-landing", default=None, choices=("on", "off"),
+                   help="store thresholds.push_landing: re-rank the learned push so the closed fingers do not "
+                        "come down on top of an object (pg_policy.push_landing; default: not stored = off)")
     p.set_defaults(run=_run)
 
 
@@ -44,7 +50,8 @@ def latest_checkpoint(run: Path, stage: str | None) -> Path:
 
 def export_run(run: Path, out: Path, stage: str | None = None, threshold: float | None = None,
                push_budget: int | None = None, grasp_filter: str | None = None,
-               grasp_check: str | None = None) -> list[Path]:
+               grasp_check: str | None = None, edge_guard: bool | None = None,
+               push_landing: bool | None = None) -> list[Path]:
     """OUT/grasp.pt and OUT/push.pt from the run's checkpoint of `stage` (default: the latest), with the decision
     parameters in the metadata's thresholds. Raises FileNotFoundError (no checkpoint), ValueError (bad
     push_budget or grasp_filter)."""
@@ -68,6 +75,9 @@ def export_run(run: Path, out: Path, stage: str | None = None, threshold: float 
         thresholds["grasp_filter"] = str(GraspFilter.parse(grasp_filter))
     if grasp_check is not None:
         thresholds["grasp_check"] = grasp_check
+    for key, on in (("edge_guard", edge_guard), ("push_landing", push_landing)):
+        if on is not None:
+            thresholds[key] = bool(on)
     written = []
     for role in ("grasp", "push"):
         net = build_qnet(qcfg)
@@ -79,7 +89,10 @@ def export_run(run: Path, out: Path, stage: str | None = None, threshold: float 
 
 
 def _run(args: argparse.Namespace) -> int:
+    def flag(value: str | None) -> bool | None:
+        return None if value is None else value == "on"
+
     for path in export_run(args.run_dir, args.out, args.stage, args.threshold, args.push_budget, args.grasp_filter,
-                           args.grasp_check):
+                           args.grasp_check, flag(args.edge_guard), flag(args.push_landing)):
         print(f"wrote {path}")
     return 0
