@@ -312,8 +312,10 @@ class LearnedPolicy(_Base):
     row whatever Q_g says, as the paper's push stage does in training; a grasp that failed is not retried at the same
     place and closing axis within the trial (pg_policy.failed_grasps), nor a push that changed nothing around the
     target at the same place and direction (pg_policy.futile_pushes); Q_g passes through the grasp filter
-    (`grasp_filter_of`, pg_policy.grasp_filter) before the decision. All four are deviations at test time: see
-    docs/ARCHITECTURE.md."""
+    (`grasp_filter_of`, pg_policy.grasp_filter) before the decision; the grasp check re-ranks Q_g and may ask for a
+    push (pg_policy.grasp_check), and the push guards re-rank Q_p (pg_policy.push_landing, then
+    pg_policy.edge_guard). All are deviations at test time, each switched by the model metadata or PolicyOptions:
+    see docs/ARCHITECTURE.md."""
 
     name = "learned"
 
