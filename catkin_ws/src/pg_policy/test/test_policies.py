@@ -280,7 +280,7 @@ def test_the_shipped_model_brings_its_test_time_rules():
     lite = make_policy("lite")
     assert str(lite.grasp_filter) == "min3" and lite.grasp_check.name == "jaw-walls" and lite.grasp_check.strict
     assert lite.threshold == pytest.approx(0.7) and lite.push_budget == 3
-    assert lite.grasp_check.walls and lite.edge_guard is None  # the edge guard is off unless asked for
+    assert lite.grasp_check.walls and lite.edge_guard is not None and lite.push_landing is not None
     assert make_policy("lite", PolicyOptions(grasp_check="none")).grasp_check is None
 
 
@@ -299,6 +299,24 @@ def test_the_grasp_check_moves_a_blocked_grasp_and_keeps_the_decision(model_dir)
     target = observed_target(obs)
     assert not JawGraspCheck(plain.geometry).passes(obs.heightmap, target, d0.rotation, d0.row, d0.col)
     assert JawGraspCheck(plain.geometry).passes(obs.heightmap, target, d1.rotation, d1.row, d1.col)
+
+
+def test_the_landing_guard_moves_a_push_off_the_objects_and_keeps_the_decision(model_dir):
+    # A target boxed in on all four sides, grasp threshold +inf: every decision is a push. The guard only re-ranks
+    # Q_p: same compared push value, and the chosen push's closed jaw lands beside the objects, not on them.
+    from pg_policy.push_landing import LandingGuard
+
+    obs = _scene([(0.0, 0.0, CUBE, CUBE, "green"), (0.05, 0.0, CUBE, CUBE, "blue"), (-0.05, 0.0, CUBE, CUBE, "red"),
+                  (0.0, 0.05, CUBE, CUBE, "yellow"), (0.0, -0.05, CUBE, CUBE, "orange")])
+    opts = {"models": (model_dir,), "grasp_threshold": 1e9}
+    plain = make_policy("learned", PolicyOptions(**opts, push_landing=False))
+    guarded = make_policy("learned", PolicyOptions(**opts, push_landing=True))
+    guarded.push_landing = LandingGuard(guarded.geometry, top_k=10**6)  # the untrained net's best 200 may all land
+    d0, d1 = plain.act(obs), guarded.act(obs)
+    assert d0.primitive == d1.primitive == "push" and d1.q == pytest.approx(d0.q)
+    landing = LandingGuard(plain.geometry)
+    assert landing.cover(obs.heightmap.height, d0.rotation, d0.row, d0.col) > landing.max_cover
+    assert landing.cover(obs.heightmap.height, d1.rotation, d1.row, d1.col) <= landing.max_cover
 
 
 def test_the_strict_check_pushes_when_no_grasp_passes_until_the_push_budget_is_spent(model_dir):
