@@ -6,7 +6,8 @@ pg_policy.target_loop.TargetLoop.
 Private parameters (defaults): ~policy ("lite", the shipped model; a registry name, a shipped model folder name, a
 model directory or a TorchScript file), ~grasp_threshold (from the model), ~grasp_filter (from the model; a
 pg_policy.grasp_filter spec such as "none" or "min3"), ~grasp_check (from the model; "none", "jaw", "jaw-strict" or
-"jaw-walls": pg_policy.grasp_check), ~heightmap_timeout (5.0 wall s),
+"jaw-walls": pg_policy.grasp_check), ~edge_guard and ~push_landing (from the model; bool: the push guards
+pg_policy.edge_guard and pg_policy.push_landing), ~heightmap_timeout (5.0 wall s),
 ~primitive_timeout (60.0 s per primitive), ~max_actions (30), ~max_failed_grasps (5), ~call_timeout (600 wall s),
 ~execute_service ("/pg/execute_primitive"), ~dry_run (false: grasp_target refused; every new heightmap is decided
 on and published on /pg/dry_run/decisions).
@@ -41,8 +42,10 @@ class PolicyNode:
         threshold = rospy.get_param("~grasp_threshold", None)
         grasp_filter = rospy.get_param("~grasp_filter", None)
         grasp_check = rospy.get_param("~grasp_check", None)
+        guards = {k: None if (v := rospy.get_param(f"~{k}", None)) is None else bool(v)
+                  for k in ("edge_guard", "push_landing")}
         policy = make_policy(self.policy_name, PolicyOptions(grasp_threshold=threshold, grasp_filter=grasp_filter,
-                                                             grasp_check=grasp_check))
+                                                             grasp_check=grasp_check, **guards))
         self.limits = LoopLimits(int(rospy.get_param("~max_actions", 30)),
                                  int(rospy.get_param("~max_failed_grasps", 5)),
                                  float(rospy.get_param("~call_timeout", 600.0)))
