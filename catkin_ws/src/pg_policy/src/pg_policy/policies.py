@@ -370,10 +370,12 @@ class LearnedPolicy(_Base):
             if self.grasp_check.push_instead and not spent:
                 threshold, self.last_note = math.inf, "no grasp passes the jaw check: push"
         q_push = self.futile.suppress(self._q["push"], hm)
-        if self.push_landing is not None and visible:
-            q_push = self.push_landing.apply(q_push, hm, push_region(mask, hm.resolution))
-        if self.edge_guard is not None and visible:
-            q_push = self.edge_guard.apply(q_push, hm, push_region(mask, hm.resolution), mask)
+        if visible and (self.push_landing is not None or self.edge_guard is not None):
+            region = push_region(mask, hm.resolution)
+            if self.push_landing is not None:
+                q_push = self.push_landing.apply(q_push, hm, region)
+            if self.edge_guard is not None:
+                q_push = self.edge_guard.apply(q_push, hm, region, mask)
         d = decide(q_grasp, q_push, mask, hm, self.prims, threshold)
         self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0
         self.last, self.last_seen = d, (hm, mask)
