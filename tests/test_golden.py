@@ -1,0 +1,84 @@
+"""Golden decisions of the shipped policy: the redesigns of the code must not change what it decides.
+
+tests/golden/ holds every observation the shipped `lite` policy saw in the first protocol trial (seed 1,000,000) of
+each of the 16 protocol scenes, with the decision it took (recorded by tests/golden/record_golden.py, one torch thread
+as in a protocol worker). The replay feeds the stored heightmaps through a fresh policy trial by trial, so the
+within-trial rules (failed grasps, futile pushes) see the same history; the simulator test re-runs two of those
+trials end to end and must take the same actions.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+import pytest
+
+GOLDEN = Path(__file__).resolve().parent / "golden"
+SEED = 1_000_000
+
+
+@contextmanager
+def one_thread() -> Iterator[None]:
+    import cv2
+    import torch
+
+    before = torch.get_num_threads(), cv2.getNumThreads()
+    torch.set_num_threads(1)
+    cv2.setNumThreads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(before[0])
+        cv2.setNumThreads(before[1])
+
+
+def records() -> list[dict[str, Any]]:
+    return json.loads((GOLDEN / "decisions.json").read_text())
+
+
+def assert_same(decision: Any, want: dict[str, Any], where: str) -> None:
+    got = (decision.primitive, int(decision.rotation), int(decision.row), int(decision.col))
+    assert got == (want["primitive"], want["rotation"], want["row"], want["col"]), f"{where}: {got} != {want}"
+    np.testing.assert_allclose([decision.q, decision.grasp_q], [want["q"], want["grasp_q"]], rtol=1e-5, atol=1e-6,
+                               err_msg=where)
+
+
+def test_golden_replay_of_every_protocol_scene() -> None:
+    from pg_policy.heightmap import Heightmap
+    from pg_policy.policies import make_policy
+
+    arrays = np.load(GOLDEN / "decisions.npz")
+    recs = records()
+    assert len({r["scene"] for r in recs}) == 16
+    with one_thread():
+        policy = make_policy("lite")
+        for k, rec in enumerate(recs):
+            if rec["step"] == 0:
+                policy.reset(rec["seed"])
+            hm = Heightmap(arrays[f"color_{k}"], arrays[f"height_{k}"], arrays[f"valid_{k}"], rec["resolution"],
+                           np.asarray(rec["bounds"]))
+            d = policy.act(SimpleNamespace(heightmap=hm, target=rec["target"]))
+            assert_same(d, rec["decision"], f"{rec['scene']} step {rec['step']}")
+            assert str(getattr(policy, "last_note", "")) == rec["note"]
+
+
+@pytest.mark.parametrize("scene", ["packed/case01", "random-10"])
+def test_first_protocol_trial_in_the_simulator(scene: str) -> None:
+    from pg_policy.evaluate import EvalPlan, run_fresh
+    from pg_policy.policies import make_policy
+    from pg_policy.sim_env import SimEnv
+
+    want = [r for r in records() if r["scene"] == scene]
+    with one_thread():
+        trial = run_fresh(SimEnv, make_policy("lite"), scene, SEED, EvalPlan(scenes=(scene,), trials=1, seed=SEED))
+    assert trial.completed
+    assert len(trial.actions) == len(want)
+    for a, rec in zip(trial.actions, want, strict=True):
+        d = SimpleNamespace(**a["decision"])
+        assert_same(d, rec["decision"], f"{scene} step {rec['step']}")
