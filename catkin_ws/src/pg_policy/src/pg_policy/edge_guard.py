@@ -23,6 +23,7 @@ A test-time deviation from the paper (docs/ARCHITECTURE.md).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -87,13 +88,11 @@ class EdgeGuard:
         out = self.outside(after)
         return out <= 0.0 or out <= self.outside(centre) + 1e-9
 
-    def apply(self, q: np.ndarray, hm: Heightmap, region: np.ndarray, target: np.ndarray) -> np.ndarray:
-        """(R, H, W) float64 copy of the push map `q`, re-ranked inside the (H, W) bool `region` so that its argmax is
-        the best-valued allowed push for the (H, W) bool `target` mask; `q` unchanged (as float64) when the target
-        is empty or none of the top_k is allowed."""
-        self.rejected = 0
+    def candidate_test(self, hm: Heightmap, target: np.ndarray) -> Callable[[int, int, int], bool] | None:
+        """The yes/no test of a push candidate (rotation, row, col) in `hm` for the (H, W) bool `target` mask; None
+        (every candidate allowed) when the target is empty."""
         if not target.any():
-            return np.asarray(q, dtype=np.float64).copy()
+            return None
         t_xy = cell_centres(*np.nonzero(target), hm.bounds, hm.resolution)
         c_xy = cell_centres(*np.nonzero(self.cluster(hm.height, target)), hm.bounds, hm.resolution)
 
@@ -101,6 +100,16 @@ class EdgeGuard:
             start = np.array(pixel_to_world(row, col, hm.bounds, hm.resolution))
             return self.allows(t_xy, start, r * 2 * math.pi / self.rotations, c_xy)
 
+        return allowed
+
+    def apply(self, q: np.ndarray, hm: Heightmap, region: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """(R, H, W) float64 copy of the push map `q`, re-ranked inside the (H, W) bool `region` so that its argmax is
+        the best-valued allowed push for the (H, W) bool `target` mask; `q` unchanged (as float64) when the target
+        is empty or none of the top_k is allowed."""
+        self.rejected = 0
+        allowed = self.candidate_test(hm, target)
+        if allowed is None:
+            return np.asarray(q, dtype=np.float64).copy()
         out, rank = rerank(q, region, allowed, self.top_k)
         self.rejected = rank or 0
         return out

@@ -35,6 +35,7 @@ from pg_policy.futile_pushes import FutilePushes
 from pg_policy.geometry import Geometry, load
 from pg_policy.grasp_check import make_grasp_check
 from pg_policy.heightmap import Heightmap
+from pg_policy.rerank import rerank
 
 RANDOM_RADIUS_M = 0.02
 GRASP_FILE = "grasp.pt"
@@ -370,12 +371,14 @@ class LearnedPolicy(_Base):
             if self.grasp_check.push_instead and not spent:
                 threshold, self.last_note = math.inf, "no grasp passes the jaw check: push"
         q_push = self.futile.suppress(self._q["push"], hm)
-        if visible and (self.push_landing is not None or self.edge_guard is not None):
-            region = push_region(mask, hm.resolution)
-            if self.push_landing is not None:
-                q_push = self.push_landing.apply(q_push, hm, region)
-            if self.edge_guard is not None:
-                q_push = self.edge_guard.apply(q_push, hm, region, mask)
+        tests, top_k = [], max([g.top_k for g in (self.push_landing, self.edge_guard) if g is not None], default=1)
+        if visible and self.push_landing is not None:
+            tests.append(self.push_landing.candidate_test(hm))
+        if visible and self.edge_guard is not None and (edge := self.edge_guard.candidate_test(hm, mask)) is not None:
+            tests.append(edge)
+        if tests:  # a push candidate must pass every push guard
+            q_push, _ = rerank(q_push, push_region(mask, hm.resolution),
+                               lambda r, row, col: all(t(r, row, col) for t in tests), top_k)
         d = decide(q_grasp, q_push, mask, hm, self.prims, threshold)
         self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0
         self.last, self.last_seen = d, (hm, mask)

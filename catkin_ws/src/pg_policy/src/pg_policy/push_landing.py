@@ -15,6 +15,7 @@ allowed Q_p is unchanged. A test-time deviation from the paper (docs/ARCHITECTUR
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -62,6 +63,10 @@ class LandingGuard:
 
     def allows(self, height: np.ndarray, rotation: int, row: int, col: int) -> bool:
         return self.cover(height, rotation, row, col) <= self.max_cover
+
+    def candidate_test(self, hm: Heightmap) -> Callable[[int, int, int], bool]:
+        """The yes/no test of a push candidate (rotation, row, col) in `hm`."""
+        return lambda r, row, col: self.allows(hm.height, r, row, col)
 
     def apply(self, q: np.ndarray, hm: Heightmap, region: np.ndarray) -> np.ndarray:
         """(R, H, W) float64 copy of the push map `q`, re-ranked inside the (H, W) bool `region` so that its argmax
