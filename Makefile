@@ -17,7 +17,7 @@ help:
 	@echo "make demo    headless sim demo (runs setup first)"
 	@echo "make train   train the lite model through the four stages and export it (hours; resumable)"
 	@echo "make lint    ruff"
-	@echo "make urdf    regenerate catkin_ws/src/pg_sim/urdf/pushgrasp.urdf from the geometry config"
+	@echo "make urdf    regenerate catkin_ws/src/pg_description/urdf/pushgrasp.urdf from the geometry config"
 
 setup: $(STAMP)/apt $(STAMP)/venv $(STAMP)/build
 
@@ -45,7 +45,7 @@ lint: $(STAMP)/venv
 	$(PY) -m ruff check .
 
 urdf: $(STAMP)/venv
-	$(PY) -m pg_sim.urdf_builder --out catkin_ws/src/pg_sim/urdf/pushgrasp.urdf
+	$(PY) -m pg_sim.robot.urdf_builder --out catkin_ws/src/pg_description/urdf/pushgrasp.urdf
 
 test: setup
 	@scripts/run_tests.sh

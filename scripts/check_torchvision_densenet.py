@@ -5,7 +5,7 @@ the same features."""
 import torch
 import torchvision
 
-from pg_policy.nets.registry import get_backbone
+from pg_policy.models.nets.registry import get_backbone
 
 torch.manual_seed(0)
 tv = torchvision.models.densenet121(weights=None).eval()

@@ -24,6 +24,6 @@ for family in packed household random; do
   fi
   echo "[eval] $policy on $family: $trials trials per scene from seed $seed"
   # shellcheck disable=SC2086
-  "${PG_PYTHON:-$repo/.venv/bin/python}" -m pg_policy.cli eval --policy "$policy" --scenes ${FAMILIES[$family]} \
+  "${PG_PYTHON:-$repo/.venv/bin/python}" -m pg_policy.cli.main eval --policy "$policy" --scenes ${FAMILIES[$family]} \
     --trials "$trials" --seed "$seed" --out "$out/$family" "$@"
 done

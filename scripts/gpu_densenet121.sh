@@ -45,7 +45,7 @@ mkdir -p "$out"
 out=$(realpath "$out")
 t0=$(date +%s)
 step() { echo "[gpu] $(($(date +%s) - t0)) s: $*" | tee -a "$out/steps.log"; }
-pg() { "$py" -m pg_policy.cli "$@"; }
+pg() { "$py" -m pg_policy.cli.main "$@"; }
 
 if ! "$py" -c "import pybullet" 2>/dev/null; then
   step "building pybullet from $sdist"

@@ -12,8 +12,8 @@ import math
 from dataclasses import replace
 from pathlib import Path
 
-from pg_sim.colors import resolve_color
-from pg_sim.scene import ObjectSpec, SceneSpec, save_scene
+from pg_sim.scenes.colors import resolve_color
+from pg_sim.scenes.scene import ObjectSpec, SceneSpec, save_scene
 
 OUT = Path(__file__).resolve().parents[1] / "catkin_ws" / "src" / "pg_sim" / "scenes"
 HEIGHT = {"cube": 0.045, "rect": 0.045, "triangle": 0.045, "arch": 0.045, "cylinder": 0.045, "half_cube": 0.045,
@@ -151,7 +151,7 @@ def on_table(spec: SceneSpec) -> SceneSpec:
     """Shift each object vertically so its lowest point is 1 mm above the table (AABB from PyBullet)."""
     import pybullet as p
 
-    from pg_sim.objects import spawn_object
+    from pg_sim.scenes.objects import spawn_object
 
     client = p.connect(p.DIRECT)
     objs = []

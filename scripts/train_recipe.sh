@@ -50,7 +50,7 @@ for row in "${STAGES[@]}"; do
     extra=(--init "$init")
   fi
   echo "[recipe] $stage: $iters iterations on $scene, lr $lr, seed $seed"
-  "$py" -m pg_policy.cli train --stage "$stage" --out "$out" --scene "$scene" --iterations "$iters" --lr "$lr" \
+  "$py" -m pg_policy.cli.main train --stage "$stage" --out "$out" --scene "$scene" --iterations "$iters" --lr "$lr" \
     --seed "$seed" --threads "$threads" --minutes "$minutes" "${stage_flags[@]}" "${extra[@]}"
   done_its=$("$py" -c "import torch; print(torch.load('$out/$stage/last.pt', weights_only=False)['iteration'])")
   if [ "$done_its" -lt "$iters" ]; then
@@ -60,9 +60,9 @@ for row in "${STAGES[@]}"; do
 done
 # output stride 8 (docs/ARCHITECTURE.md): the stride-16 alternate result loaded as `lite-os8`, then alternate again
 os8_iters=$("$py" -c "print(max(1, round(800 * $scale)))")
-"$py" -m pg_policy.cli export --run "$out" --stage alternate --out "$out/os16_model"
+"$py" -m pg_policy.cli.main export --run "$out" --stage alternate --out "$out/os16_model"
 echo "[recipe] alternate at output stride 8: $os8_iters iterations on dense-8"
-"$py" -m pg_policy.cli train --stage alternate --backbone lite-os8 --init "$out/os16_model" --out "$out/os8" \
+"$py" -m pg_policy.cli.main train --stage alternate --backbone lite-os8 --init "$out/os16_model" --out "$out/os8" \
   --scene dense-8 --iterations "$os8_iters" --lr 1e-4 --seed 8 --threads "$threads" --minutes "$minutes" \
   --guided-exploration 0.7 --grasp-threshold 0.7 --push-budget 3 --epsilon-start 0.3 --epsilon-end 0.1 \
   --epsilon-decay "$(( os8_iters * 3 / 4 > 0 ? os8_iters * 3 / 4 : 1 ))"
@@ -72,5 +72,5 @@ if [ "$done_its" -lt "$os8_iters" ]; then
   exit 3
 fi
 # the test-time grasp filter and grasp check of the shipped model (docs/ARCHITECTURE.md) go into the metadata
-"$py" -m pg_policy.cli export --run "$out/os8" --out "$export_dir" --grasp-filter min3 --grasp-check jaw-walls --edge-guard on --push-landing on
+"$py" -m pg_policy.cli.main export --run "$out/os8" --out "$export_dir" --grasp-filter min3 --grasp-check jaw-walls --edge-guard on --push-landing on
 echo "[recipe] exported $export_dir"

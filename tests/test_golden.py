@@ -50,8 +50,8 @@ def assert_same(decision: Any, want: dict[str, Any], where: str) -> None:
 
 
 def test_golden_replay_of_every_protocol_scene() -> None:
-    from pg_policy.heightmap import Heightmap
-    from pg_policy.policies import make_policy
+    from pg_core.heightmap import Heightmap
+    from pg_policy.policies.registry import make_policy
 
     arrays = np.load(GOLDEN / "decisions.npz")
     recs = records()
@@ -70,9 +70,9 @@ def test_golden_replay_of_every_protocol_scene() -> None:
 
 @pytest.mark.parametrize("scene", ["packed/case01", "random-10"])
 def test_first_protocol_trial_in_the_simulator(scene: str) -> None:
-    from pg_policy.evaluate import EvalPlan, run_fresh
-    from pg_policy.policies import make_policy
-    from pg_policy.sim_env import SimEnv
+    from pg_policy.environment.sim_env import SimEnv
+    from pg_policy.evaluation.trials import EvalPlan, run_fresh
+    from pg_policy.policies.registry import make_policy
 
     want = [r for r in records() if r["scene"] == scene]
     with one_thread():

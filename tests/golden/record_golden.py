@@ -35,9 +35,9 @@ def set_threads(n: int) -> None:
 
 
 def main() -> None:
-    from pg_policy.evaluate import EvalPlan, run_fresh
-    from pg_policy.policies import make_policy
-    from pg_policy.sim_env import SimEnv
+    from pg_policy.environment.sim_env import SimEnv
+    from pg_policy.evaluation.trials import EvalPlan, run_fresh
+    from pg_policy.policies.registry import make_policy
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent)

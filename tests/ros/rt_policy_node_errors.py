@@ -54,9 +54,9 @@ class PolicyNodeErrors(unittest.TestCase):
         proc = start(str(model), "pg_policy")
         try:
             wait_service("/pg/infer", 120.0)
-            from pg_policy.heightmap import Heightmap
-            from pg_policy.palette import palette_rgb
-            from pg_policy.ros.convert import heightmap_to_msg
+            from pg_conversions.heightmap_msg import heightmap_to_msg
+            from pg_core.heightmap import Heightmap
+            from pg_core.palette import palette_rgb
 
             color = np.full((224, 224, 3), (199, 178, 148), np.uint8)
             height = np.zeros((224, 224), np.float32)

@@ -34,7 +34,7 @@ class RecordReplay(unittest.TestCase):
             time.sleep(0.5)
         self.assertTrue(bag.exists(), f"{bag} was not closed by rosbag record")
         out = bag.with_suffix(".json")
-        proc = subprocess.run([sys.executable, "-m", "pg_policy.cli", "replay", str(bag), "--json", str(out)],
+        proc = subprocess.run([sys.executable, "-m", "pg_policy.cli.main", "replay", str(bag), "--json", str(out)],
                               capture_output=True, text=True, timeout=300, env=dict(os.environ))
         self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
         rospy.loginfo("pushgrasp replay:\n%s", proc.stdout)

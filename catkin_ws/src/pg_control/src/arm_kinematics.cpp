@@ -1,11 +1,10 @@
 #include "pg_control/arm_kinematics.h"
 
+#include <algorithm>
+#include <cmath>
 #include <kdl/chainfksolverpos_recursive.hpp>
 #include <kdl/chainiksolverpos_lma.hpp>
 #include <kdl/jntarray.hpp>
-
-#include <algorithm>
-#include <cmath>
 #include <limits>
 #include <random>
 #include <stdexcept>
@@ -31,8 +30,8 @@ KDL::JntArray toJnt(const JointVector& q) {
 
 }  // namespace
 
-ArmKinematics::ArmKinematics(const urdf::ModelInterface& model, const std::string& world_frame, const ArmSpec& arm,
-                             const RobotParams& robot)
+ArmKinematics::ArmKinematics(const urdf::ModelInterface& model, const std::string& world_frame,
+                             const pg_core::ArmSpec& arm, const pg_core::RobotParams& robot)
     : name_(arm.name) {
   const std::string prefix = arm.name + "_";
   chain_ = chainFromUrdf(model, prefix + "base_link", prefix + "gripper_tcp");
@@ -173,7 +172,7 @@ std::optional<JointVector> ArmKinematics::solve(const Eigen::Isometry3d& world_T
       return q;  // unique on the branch up to the 2 pi shifts already chosen
     }
     const JointVector d = (*q - seed).cwiseAbs();
-    const double cost = d.maxCoeff() * 10.0 + d.sum();  // as pg_sim.ur_ik.closest
+    const double cost = d.maxCoeff() * 10.0 + d.sum();  // as pg_sim.robot.ur_ik.closest
     if (cost < best_cost) {
       best_cost = cost;
       best = q;

@@ -36,11 +36,11 @@ PrimitiveController::PrimitiveController(ros::NodeHandle& nh, ros::NodeHandle& p
     : nh_(nh), tf_listener_(tf_buffer_) {
   std::string config_path = param<std::string>(pnh, "workspace_config", "");
   if (config_path.empty()) {
-    const std::string pkg = ros::package::getPath("pg_policy");
-    if (pkg.empty()) throw std::runtime_error("~workspace_config not set and package pg_policy not found");
+    const std::string pkg = ros::package::getPath("pg_description");
+    if (pkg.empty()) throw std::runtime_error("~workspace_config not set and package pg_description not found");
     config_path = pkg + "/config/workspace.yaml";
   }
-  config_ = std::make_unique<WorkspaceConfig>(WorkspaceConfig::fromFile(config_path));
+  config_ = std::make_unique<pg_core::WorkspaceConfig>(pg_core::WorkspaceConfig::fromFile(config_path));
 
   UrdfModelPtr model;
   const std::string description_param = param<std::string>(pnh, "robot_description_param", "robot_description");
@@ -91,8 +91,7 @@ PrimitiveController::PrimitiveController(ros::NodeHandle& nh, ros::NodeHandle& p
   ROS_INFO("primitive_controller: serving /pg/execute_primitive (config %s)", config_path.c_str());
 }
 
-bool PrimitiveController::onExecute(pg_msgs::ExecutePrimitive::Request& req,
-                                    pg_msgs::ExecutePrimitive::Response& res) {
+bool PrimitiveController::onExecute(pg_msgs::ExecutePrimitive::Request& req, pg_msgs::ExecutePrimitive::Response& res) {
   if (busy_.exchange(true)) {  // refused, not queued
     ROS_WARN("primitive_controller: refused a request while busy");
     res.success = false;
@@ -159,8 +158,8 @@ void PrimitiveController::execute(const pg_msgs::ExecutePrimitive::Request& req,
     if (step.kind == PrimitiveStep::Kind::kMove && step.name != "home") planned += step.motion.duration();
   }
   if (planned > timeout) {
-    res.message = fmt("the planned motion takes %.2f s, more than the timeout of %.2f s; nothing moved", planned,
-                      timeout);
+    res.message =
+        fmt("the planned motion takes %.2f s, more than the timeout of %.2f s; nothing moved", planned, timeout);
     return;
   }
   const ArmIo& io = io_.at(plan.arm);
@@ -319,7 +318,7 @@ std::string PrimitiveController::runGripper(const std::string& arm, double openi
       moved = t;
     }
     if ((t - moved).toSec() >= gripper_stall_time_) return true;  // stalled (on an object)
-    return (t - start).toSec() >= gripper_timeout_;                // as pg_sim: go on after the time limit
+    return (t - start).toSec() >= gripper_timeout_;               // as pg_sim: go on after the time limit
   };
   const std::string why = waitUntil(settled, limit, "gripper");
   if (why.empty()) return "";

@@ -58,26 +58,26 @@ class PrimitiveController {
   Deadline deadlineIn(double ros_seconds) const;
 
   ros::NodeHandle nh_;
-  std::unique_ptr<WorkspaceConfig> config_;
+  std::unique_ptr<pg_core::WorkspaceConfig> config_;
   std::unique_ptr<PrimitivePlanner> planner_;
   std::map<std::string, ArmIo> io_;
   std::string world_frame_;
   std::string joint_states_topic_;
 
   // Parameters (seconds are ROS time unless marked wall).
-  double goal_tolerance_ = 0.01;          // rad, final joint error accepted at the end of a move
-  double goal_time_tolerance_ = 1.0;      // s a move may run past its planned duration
-  double default_timeout_ = 8.0;          // s per primitive when the request gives 0
-  double home_timeout_ = 8.0;             // s for the return home
-  double joint_states_timeout_ = 2.0;     // wall s without /joint_states = dead
-  double clock_timeout_ = 2.0;            // wall s without ROS time advancing (sim time) = dead
-  double tf_timeout_ = 1.0;               // wall s to wait for the request's transform
-  double max_wall_time_ = 120.0;          // wall s any request may take in total
-  double gripper_tolerance_ = 5e-4;       // m: the fingers reached the commanded opening
-  double gripper_stall_epsilon_ = 2e-4;   // m: less change than this ...
-  double gripper_stall_time_ = 0.2;       // ... for this long = stalled on an object
-  double gripper_timeout_ = 2.0;          // s the fingers may move before the controller goes on
-  double poll_period_ = 0.005;            // wall s between checks
+  double goal_tolerance_ = 0.01;         // rad, final joint error accepted at the end of a move
+  double goal_time_tolerance_ = 1.0;     // s a move may run past its planned duration
+  double default_timeout_ = 8.0;         // s per primitive when the request gives 0
+  double home_timeout_ = 8.0;            // s for the return home
+  double joint_states_timeout_ = 2.0;    // wall s without /joint_states = dead
+  double clock_timeout_ = 2.0;           // wall s without ROS time advancing (sim time) = dead
+  double tf_timeout_ = 1.0;              // wall s to wait for the request's transform
+  double max_wall_time_ = 120.0;         // wall s any request may take in total
+  double gripper_tolerance_ = 5e-4;      // m: the fingers reached the commanded opening
+  double gripper_stall_epsilon_ = 2e-4;  // m: less change than this ...
+  double gripper_stall_time_ = 0.2;      // ... for this long = stalled on an object
+  double gripper_timeout_ = 2.0;         // s the fingers may move before the controller goes on
+  double poll_period_ = 0.005;           // wall s between checks
 
   JointStateCache joints_;
   ros::CallbackQueue state_queue_;  // /joint_states flows on its own thread whatever the service threads do

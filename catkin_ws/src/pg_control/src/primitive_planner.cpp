@@ -20,7 +20,7 @@ std::string fmt(const char* format, double a, double b, double c) {
   return buf;
 }
 
-std::string interval(const Interval& i) { return fmt("[%g, %g]", i.min, i.max, 0.0); }
+std::string interval(const pg_core::Interval& i) { return fmt("[%g, %g]", i.min, i.max, 0.0); }
 
 PrimitiveStep gripperStep(const std::string& name, double opening, bool wait) {
   PrimitiveStep s;
@@ -52,16 +52,16 @@ double PrimitivePlan::motionDuration() const {
   return sum;
 }
 
-PrimitivePlanner::PrimitivePlanner(const WorkspaceConfig& config, const urdf::ModelInterface& model)
+PrimitivePlanner::PrimitivePlanner(const pg_core::WorkspaceConfig& config, const urdf::ModelInterface& model)
     : config_(config) {
-  for (const ArmSpec& spec : config_.robot().arms) {
+  for (const pg_core::ArmSpec& spec : config_.robot().arms) {
     arms_[spec.name] = std::make_unique<ArmKinematics>(model, "world", spec, config_.robot());
   }
 }
 
 std::vector<std::string> PrimitivePlanner::armNames() const {
   std::vector<std::string> names;
-  for (const ArmSpec& spec : config_.robot().arms) names.push_back(spec.name);
+  for (const pg_core::ArmSpec& spec : config_.robot().arms) names.push_back(spec.name);
   return names;
 }
 
@@ -88,7 +88,7 @@ std::vector<std::string> PrimitivePlanner::armOrder(const std::string& arm, cons
     return {arm};
   }
   std::vector<std::pair<double, std::string>> by_distance;
-  for (const ArmSpec& spec : config_.robot().arms) {
+  for (const pg_core::ArmSpec& spec : config_.robot().arms) {
     by_distance.emplace_back(std::hypot(spec.xyz[0] - xy.x(), spec.xyz[1] - xy.y()), spec.name);
   }
   std::stable_sort(by_distance.begin(), by_distance.end(),
@@ -110,8 +110,8 @@ TimedPath PrimitivePlanner::jointMove(const std::string& name, const JointVector
 void PrimitivePlanner::checkWorkspace(const std::vector<std::pair<std::string, Eigen::Vector3d>>& points) const {
   for (const auto& [what, p] : points) {
     if (!config_.contains(p.x(), p.y(), p.z())) {
-      throw PrimitiveRefused(what + fmt(" (%.3f, %.3f, %.3f) m is outside the workspace", p.x(), p.y(), p.z()) +
-                             " x " + interval(config_.xRange()) + " y " + interval(config_.yRange()) + " z " +
+      throw PrimitiveRefused(what + fmt(" (%.3f, %.3f, %.3f) m is outside the workspace", p.x(), p.y(), p.z()) + " x " +
+                             interval(config_.xRange()) + " y " + interval(config_.yRange()) + " z " +
                              interval(config_.zRange()) + " (nothing moved)");
     }
   }
@@ -122,7 +122,7 @@ PrimitivePlan PrimitivePlanner::plan(const PrimitiveRequest& request,
   if (!request.position.allFinite() || !std::isfinite(request.yaw)) {
     throw PrimitiveRefused("position and yaw must be finite numbers (nothing moved)");
   }
-  const PrimitiveParams& pr = config_.primitives();
+  const pg_core::PrimitiveParams& pr = config_.primitives();
   const Eigen::Vector3d up(0.0, 0.0, pr.approach_height);
   const Eigen::Vector3d point = request.position;
   const Eigen::Vector3d pre = point + up;
@@ -165,8 +165,8 @@ PrimitivePlan PrimitivePlanner::planArm(const std::string& name, const Primitive
   if (current.size() != 6 || !current.allFinite()) {
     throw std::invalid_argument("current joints of arm '" + name + "' must be 6 finite numbers");
   }
-  const PrimitiveParams& pr = config_.primitives();
-  const GripperParams& g = config_.gripper();
+  const pg_core::PrimitiveParams& pr = config_.primitives();
+  const pg_core::GripperParams& g = config_.gripper();
   const TimingOptions timing = timingOptions();
   CartesianPathOptions path_options;
   path_options.step = pr.waypoint_step;

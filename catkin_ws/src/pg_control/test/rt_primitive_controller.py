@@ -26,7 +26,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from trajectory_msgs.msg import JointTrajectory
 
-from pg_policy.geometry import load
+from pg_core.geometry import load
 
 PKG = "pg_control"
 SERVICE = "/pg/execute_primitive"

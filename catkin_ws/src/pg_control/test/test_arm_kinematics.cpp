@@ -1,11 +1,12 @@
 // Unit tests for pg_control::ArmKinematics and the URDF chain (ROS-free; no roscore).
 #include <gtest/gtest.h>
+#include <pg_core/workspace_config.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <optional>
-#include <cmath>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -13,7 +14,6 @@
 #include "pg_control/arm_kinematics.h"
 #include "pg_control/tool_pose.h"
 #include "pg_control/urdf_chain.h"
-#include "pg_control/workspace_config.h"
 
 namespace pg_control {
 namespace {
@@ -23,7 +23,7 @@ constexpr double kPi = 3.14159265358979323846;
 class ArmKinematicsTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    config_ = new WorkspaceConfig(WorkspaceConfig::fromFile(PG_WORKSPACE_YAML));
+    config_ = new pg_core::WorkspaceConfig(pg_core::WorkspaceConfig::fromFile(PG_WORKSPACE_YAML));
     model_ = new UrdfModelPtr(loadUrdfFile(config_->robot().urdf_path));
     for (const auto& spec : config_->robot().arms) {
       arms_[spec.name] = new ArmKinematics(**model_, "world", spec, config_->robot());
@@ -38,8 +38,8 @@ class ArmKinematicsTest : public ::testing::Test {
 
   // world <- gripper_tcp from the official UR5e DH of the config (standard DH: Rz(q) Tz(d) Tx(a) Rx(alpha)), the
   // arm's base mount (xyz, URDF rpy) and the tcp offset along tool0 z: the closed form FK must agree with.
-  static Eigen::Isometry3d dhTcp(const ArmSpec& arm, const JointVector& q) {
-    const RobotParams& r = config_->robot();
+  static Eigen::Isometry3d dhTcp(const pg_core::ArmSpec& arm, const JointVector& q) {
+    const pg_core::RobotParams& r = config_->robot();
     Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
     t.translation() = Eigen::Vector3d(arm.xyz[0], arm.xyz[1], arm.xyz[2]);
     t.linear() = (Eigen::AngleAxisd(arm.rpy[2], Eigen::Vector3d::UnitZ()) *
@@ -69,12 +69,12 @@ class ArmKinematicsTest : public ::testing::Test {
     }
   }
 
-  static WorkspaceConfig* config_;
+  static pg_core::WorkspaceConfig* config_;
   static UrdfModelPtr* model_;
   static std::map<std::string, ArmKinematics*> arms_;
 };
 
-WorkspaceConfig* ArmKinematicsTest::config_ = nullptr;
+pg_core::WorkspaceConfig* ArmKinematicsTest::config_ = nullptr;
 UrdfModelPtr* ArmKinematicsTest::model_ = nullptr;
 std::map<std::string, ArmKinematics*> ArmKinematicsTest::arms_;
 
@@ -87,9 +87,8 @@ TEST_F(ArmKinematicsTest, ChainMatchesTheConfig) {
     EXPECT_NEAR(arm->velocityLimit(), kPi, 1e-9);
     EXPECT_NEAR(arm->upper()(2), kPi, 1e-9);
     EXPECT_NEAR(arm->lower()(0), -2 * kPi, 1e-9);
-    const ArmSpec* spec = config_->arm(name);
-    EXPECT_NEAR((arm->worldFromBase().translation() - Eigen::Vector3d(spec->xyz[0], spec->xyz[1], spec->xyz[2]))
-                    .norm(),
+    const pg_core::ArmSpec* spec = config_->arm(name);
+    EXPECT_NEAR((arm->worldFromBase().translation() - Eigen::Vector3d(spec->xyz[0], spec->xyz[1], spec->xyz[2])).norm(),
                 0.0, 1e-9);
     EXPECT_EQ(arm->branchOf(arm->home()), arm->branch()) << name << ": home must lie on the configured branch";
   }
@@ -99,7 +98,7 @@ TEST_F(ArmKinematicsTest, FkEqualsDhClosedFormWithMountAndTcpOffset) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> any(-2 * kPi, 2 * kPi);
   for (const auto& [name, arm] : arms_) {
-    const ArmSpec& spec = *config_->arm(name);
+    const pg_core::ArmSpec& spec = *config_->arm(name);
     for (int n = 0; n < 200; ++n) {
       JointVector q(6);
       for (int k = 0; k < 6; ++k) q(k) = any(rng);
@@ -227,7 +226,7 @@ TEST_F(ArmKinematicsTest, UrdfErrorsAreNamed) {
   EXPECT_THROW(fixedTransform(**model_, "world", "left_tool0"), std::runtime_error);
   EXPECT_THROW(parseUrdf("<robot name='x'><link name='a'/", "test"), std::runtime_error);
   EXPECT_THROW(loadUrdfFile("/nonexistent.urdf"), std::runtime_error);
-  ArmSpec bad = *config_->arm("left");
+  pg_core::ArmSpec bad = *config_->arm("left");
   bad.name = "middle";
   EXPECT_THROW(ArmKinematics(**model_, "world", bad, config_->robot()), std::runtime_error);
 }

@@ -1,8 +1,10 @@
 """Cross-language kinematics: pg_control's C++ (KDL on the URDF) against pg_sim's Python (closed-form DH).
 
 Sim and controller must never disagree about the robot (DESIGN.md section 3): the C++ forward kinematics must equal
-pg_sim.kinematics.tcp_fk / tool_fk, and the C++ IK (KDL, restricted to the config's ik_branch, nearest the seed) must
-pick the same joint configuration as pg_sim.ik.IkSolver for the tool-down poses the primitives use. The C++ side runs
+pg_sim.robot.kinematics.tcp_fk / tool_fk, and the C++ IK (KDL, restricted to the config's ik_branch, nearest the seed)
+must
+pick the same joint configuration as pg_sim.robot.ik.IkSolver for the tool-down poses the primitives use. The C++ side
+runs
 through the `pg_control_kinematics` command-line tool of the catkin build (skipped when it is not built).
 """
 
@@ -16,10 +18,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pg_policy.geometry import DEFAULT_CONFIG, load
-from pg_sim.ik import IkSolver
-from pg_sim.kinematics import arm_base_pose, tcp_fk, tool_fk
-from pg_sim.ur_ik import ik_all
+from pg_core.geometry import DEFAULT_CONFIG, load
+from pg_sim.robot.ik import IkSolver
+from pg_sim.robot.kinematics import arm_base_pose, tcp_fk, tool_fk
+from pg_sim.robot.ur_ik import ik_all
 
 REPO = Path(__file__).resolve().parents[4]
 DEVEL = Path(os.environ.get("PG_DEVEL_DIR", REPO / "catkin_ws" / "devel"))

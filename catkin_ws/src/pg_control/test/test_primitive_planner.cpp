@@ -36,7 +36,7 @@ std::string replaced(std::string text, const std::string& from, const std::strin
 class PrimitivePlannerTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    config_ = new WorkspaceConfig(WorkspaceConfig::fromFile(PG_WORKSPACE_YAML));
+    config_ = new pg_core::WorkspaceConfig(pg_core::WorkspaceConfig::fromFile(PG_WORKSPACE_YAML));
     model_ = new UrdfModelPtr(loadUrdfFile(config_->robot().urdf_path));
     planner_ = new PrimitivePlanner(*config_, **model_);
   }
@@ -89,12 +89,12 @@ class PrimitivePlannerTest : public ::testing::Test {
     return "";
   }
 
-  static WorkspaceConfig* config_;
+  static pg_core::WorkspaceConfig* config_;
   static UrdfModelPtr* model_;
   static PrimitivePlanner* planner_;
 };
 
-WorkspaceConfig* PrimitivePlannerTest::config_ = nullptr;
+pg_core::WorkspaceConfig* PrimitivePlannerTest::config_ = nullptr;
 UrdfModelPtr* PrimitivePlannerTest::model_ = nullptr;
 PrimitivePlanner* PrimitivePlannerTest::planner_ = nullptr;
 
@@ -107,8 +107,8 @@ TEST_F(PrimitivePlannerTest, GraspSequenceMatchesPgSim) {
   EXPECT_EQ(plan.arm, "right");  // closest base to the pre-grasp pose
   EXPECT_EQ(stepNames(plan),
             (std::vector<std::string>{"open", "transit", "approach", "close", "lift", "check", "home", "release"}));
-  const GripperParams& g = config_->gripper();
-  const PrimitiveParams& pr = config_->primitives();
+  const pg_core::GripperParams& g = config_->gripper();
+  const pg_core::PrimitiveParams& pr = config_->primitives();
   EXPECT_EQ(step(plan, "open").kind, Kind::kGripper);
   EXPECT_DOUBLE_EQ(step(plan, "open").opening, g.max_opening);
   EXPECT_FALSE(step(plan, "open").wait);
@@ -162,7 +162,7 @@ TEST_F(PrimitivePlannerTest, PushSequenceClipsTheEndToTheWorkspace) {
   expectOnLine(plan, "push", r.yaw);
   expectOnLine(plan, "retreat", r.yaw);
   // Pushes run at push_speed, the other lines at cartesian_speed.
-  const PrimitiveParams& pr = config_->primitives();
+  const pg_core::PrimitiveParams& pr = config_->primitives();
   EXPECT_GE(push.motion.duration(), 0.124 / pr.push_speed - 1e-9);
   EXPECT_GE(retreat.motion.duration(), pr.approach_height / pr.cartesian_speed - 1e-9);
   EXPECT_LT(retreat.motion.duration(), 2.0 * pr.approach_height / pr.cartesian_speed);
@@ -237,7 +237,7 @@ TEST_F(PrimitivePlannerTest, FallsBackToTheOtherArmAndRefusesUnreachable) {
 
   // A workspace larger than the arms' reach: a far point inside it is refused as unreachable by both.
   const std::string yaml = replaced(readFile(PG_WORKSPACE_YAML), "x: [-0.224, 0.224]", "x: [-2.0, 2.0]");
-  const WorkspaceConfig big = WorkspaceConfig::fromString(yaml, "big.yaml");
+  const pg_core::WorkspaceConfig big = pg_core::WorkspaceConfig::fromString(yaml, "big.yaml");
   const PrimitivePlanner big_planner(big, **model_);
   r.arm = "";
   r.position = Eigen::Vector3d(1.5, 0.0, 0.05);

@@ -4,9 +4,11 @@
 // One command per input line, one answer line each (numbers in %.17g; rad, metres, `world` frame):
 //   fk ARM q1..q6               -> 16 numbers: world <- <arm>_gripper_tcp, row-major 4x4
 //   tool0 ARM q1..q6            -> 16 numbers: world <- <arm>_tool0
-//   branch ARM q1..q6           -> shoulder wrist elbow (signs, pg_sim.ur_ik order)
+//   branch ARM q1..q6           -> shoulder wrist elbow (signs, pg_sim.robot.ur_ik order)
 //   ik ARM x y z yaw s1..s6     -> q1..q6 of the tool-down TCP pose, seeded from s, or "none"
 // A malformed line answers "error: <reason>"; the exit status is 0 unless the config or URDF cannot be loaded.
+#include <pg_core/workspace_config.h>
+
 #include <cstdio>
 #include <iostream>
 #include <map>
@@ -17,7 +19,6 @@
 
 #include "pg_control/arm_kinematics.h"
 #include "pg_control/urdf_chain.h"
-#include "pg_control/workspace_config.h"
 
 namespace {
 
@@ -48,7 +49,7 @@ int main(int argc, char** argv) {
   }
   std::map<std::string, std::unique_ptr<pg_control::ArmKinematics>> arms;
   try {
-    const pg_control::WorkspaceConfig config = pg_control::WorkspaceConfig::fromFile(argv[1]);
+    const pg_core::WorkspaceConfig config = pg_core::WorkspaceConfig::fromFile(argv[1]);
     const pg_control::UrdfModelPtr model =
         pg_control::loadUrdfFile(argc == 3 ? std::string(argv[2]) : config.robot().urdf_path);
     for (const auto& spec : config.robot().arms) {
@@ -87,7 +88,8 @@ int main(int argc, char** argv) {
       } else if (cmd == "ik") {
         JointVector pose;
         JointVector seed;
-        if (!readVector(in, 4, &pose) || !readVector(in, 6, &seed)) throw std::invalid_argument("need x y z yaw s1..s6");
+        if (!readVector(in, 4, &pose) || !readVector(in, 6, &seed))
+          throw std::invalid_argument("need x y z yaw s1..s6");
         const std::optional<JointVector> sol = kin.solveDown(pose.head<3>(), pose(3), seed);
         if (!sol) {
           std::printf("none\n");

@@ -1,90 +1,15 @@
 // ROS-free heightmap projector core; see include/pg_policy/heightmap_projector.h for the convention.
 #include "pg_policy/heightmap_projector.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
-#include <sstream>
 #include <stdexcept>
-
-#include <yaml-cpp/yaml.h>
 
 namespace pg_policy {
 
 namespace {
-
-// ---------------------------------------------------------------------------------------------------------------------
-// workspace.yaml (only the keys the projector needs)
-
-class YamlReader {
- public:
-  explicit YamlReader(std::string source) : source_(std::move(source)) {}
-
-  [[noreturn]] void fail(const std::string& what) const {
-    throw std::runtime_error("workspace config " + source_ + ": " + what);
-  }
-
-  YAML::Node child(const YAML::Node& parent, const std::string& key, const std::string& where) const {
-    if (!parent.IsMap() || !parent[key]) {
-      fail("missing key '" + where + key + "'");
-    }
-    return parent[key];
-  }
-
-  double number(const YAML::Node& node, const std::string& name) const {
-    try {
-      const double v = node.as<double>();
-      if (!std::isfinite(v)) {
-        fail("'" + name + "' must be a finite number");
-      }
-      return v;
-    } catch (const YAML::Exception&) {
-      fail("'" + name + "' must be a number");
-    }
-  }
-
-  // A [min, max] pair of numbers with min < max.
-  void interval(const YAML::Node& parent, const std::string& key, const std::string& where, double& lo,
-                double& hi) const {
-    const YAML::Node node = child(parent, key, where);
-    const std::string name = where + key;
-    if (!node.IsSequence() || node.size() != 2) {
-      fail("'" + name + "' must be a list of 2 numbers [min, max]");
-    }
-    lo = number(node[0], name + "[0]");
-    hi = number(node[1], name + "[1]");
-    if (!(lo < hi)) {
-      fail("'" + name + "' must have min < max");
-    }
-  }
-
- private:
-  std::string source_;
-};
-
-ProjectorConfig configFromNode(const YAML::Node& root, const std::string& source) {
-  const YamlReader r(source);
-  if (!root.IsMap()) {
-    r.fail("not a YAML mapping");
-  }
-  ProjectorConfig c;
-  const YAML::Node ws = r.child(root, "workspace", "");
-  r.interval(ws, "x", "workspace.", c.bounds.x_min, c.bounds.x_max);
-  r.interval(ws, "y", "workspace.", c.bounds.y_min, c.bounds.y_max);
-  r.interval(ws, "z", "workspace.", c.bounds.z_min, c.bounds.z_max);
-  const YAML::Node hm = r.child(root, "heightmap", "");
-  c.resolution = r.number(r.child(hm, "resolution", "heightmap."), "heightmap.resolution");
-  if (!(c.resolution > 0.0)) {
-    r.fail("'heightmap.resolution' must be > 0");
-  }
-  const YAML::Node frames = r.child(root, "frames", "");
-  try {
-    c.world_frame = r.child(frames, "world", "frames.").as<std::string>();
-  } catch (const YAML::Exception&) {
-    r.fail("'frames.world' must be a string");
-  }
-  return c;
-}
 
 // ---------------------------------------------------------------------------------------------------------------------
 // The hot loop: transform one point into `world`, find its cell, keep the running max.
@@ -206,26 +131,17 @@ inline double depthAt(const std::uint8_t* row, int u, DepthEncoding enc) {
 
 // ---------------------------------------------------------------------------------------------------------------------
 
-ProjectorConfig ProjectorConfig::fromYamlFile(const std::string& path) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw std::runtime_error("workspace config " + path + ": cannot open file");
-  } catch (const YAML::Exception& e) {
-    throw std::runtime_error("workspace config " + path + ": YAML error: " + e.what());
-  }
-  return configFromNode(root, path);
-}
-
-ProjectorConfig ProjectorConfig::fromYamlString(const std::string& yaml_text, const std::string& source) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::Exception& e) {
-    throw std::runtime_error("workspace config " + source + ": YAML error: " + e.what());
-  }
-  return configFromNode(root, source);
+ProjectorConfig ProjectorConfig::fromWorkspace(const pg_core::WorkspaceConfig& workspace) {
+  ProjectorConfig c;
+  c.bounds.x_min = workspace.xRange().min;
+  c.bounds.x_max = workspace.xRange().max;
+  c.bounds.y_min = workspace.yRange().min;
+  c.bounds.y_max = workspace.yRange().max;
+  c.bounds.z_min = workspace.zRange().min;
+  c.bounds.z_max = workspace.zRange().max;
+  c.resolution = workspace.resolution();
+  c.world_frame = workspace.worldFrame();
+  return c;
 }
 
 HeightmapProjector::HeightmapProjector(const ProjectorConfig& config) : config_(config) {
@@ -310,7 +226,7 @@ void HeightmapProjector::projectDepth(const DepthImageView& depth, const ColorIm
       if (!(z > 0.0) || !std::isfinite(z)) {
         continue;
       }
-      // Same expressions as pg_sim.camera.depth_to_points: (u - cx) * z / fx, (v - cy) * z / fy.
+      // Same expressions as pg_sim.world.camera.depth_to_points: (u - cx) * z / fx, (v - cy) * z / fy.
       const double x = (u - intrinsics.cx) * z / intrinsics.fx;
       const double y = dv * z / intrinsics.fy;
       binner.add(x, y, z, crow == nullptr ? nullptr : crow + 3 * static_cast<std::size_t>(u), color.bgr);

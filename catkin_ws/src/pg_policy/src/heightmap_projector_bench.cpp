@@ -2,6 +2,8 @@
 // Synthetic top-down RGB-D frame with the config's camera (table 0.7 m below it, a few boxes, ~1% holes), projected
 // onto the config's 224 x 224 grid `runs` times (default 50) through the cloud path (organised PointXYZRGB cloud),
 // the depth path with 32FC1 metres and with 16UC1 millimetres. Prints median and p90 per path.
+#include <pg_core/workspace_config.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -38,8 +40,10 @@ Stats timeRuns(int runs, const std::function<void()>& fn) {
 
 int main(int argc, char** argv) {
   const int runs = argc > 1 ? std::max(1, std::atoi(argv[1])) : 50;
-  const std::string path = argc > 2 ? argv[2] : std::string(PG_POLICY_SOURCE_DIR "/config/workspace.yaml");
-  pg_policy::HeightmapProjector projector(pg_policy::ProjectorConfig::fromYamlFile(path));
+  const std::string path =
+      argc > 2 ? argv[2] : std::string(PG_POLICY_SOURCE_DIR "/../pg_description/config/workspace.yaml");
+  pg_policy::HeightmapProjector projector(
+      pg_policy::ProjectorConfig::fromWorkspace(pg_core::WorkspaceConfig::fromFile(path)));
 
   constexpr int kW = 640;
   constexpr int kH = 480;
@@ -71,8 +75,9 @@ int main(int argc, char** argv) {
 
   // world <- camera_color_optical_frame as in config/workspace.yaml: xyz (0, 0, 0.7), rpy (pi, 0, -pi/2).
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() = (Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitZ()) *
-                   Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  pose.linear() =
+      (Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
   pose.translation() = Eigen::Vector3d(0.0, 0.0, 0.7);
 
   pg_policy::HeightmapGrid grid;

@@ -3,18 +3,15 @@
 //
 // Params (private): ~input "cloud" (default: /camera/depth/color/points, sensor_msgs/PointCloud2 XYZRGB) or "depth"
 // (ApproximateTime sync of /camera/color/image_raw rgb8|bgr8, /camera/aligned_depth_to_color/image_raw 32FC1 m|16UC1
-// mm, /camera/color/camera_info); ~workspace_config (default: $(find pg_policy)/config/workspace.yaml).
+// mm, /camera/color/camera_info); ~workspace_config (default: $(find pg_description)/config/workspace.yaml).
 // Transform world <- source frame: tf2 at the source stamp (waiting up to 0.5 s of wall time, so a paused /clock cannot
 // block it), else the latest one; none -> ROS_WARN_THROTTLE and no output. Subscribers use queue_size 1: never lags.
 // Also /pg/heightmap/color (sensor_msgs/Image rgb8, the heightmap's colour layer) while someone subscribes (rviz).
-#include <cstring>
-#include <memory>
-#include <string>
-
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/approximate_time.h>
 #include <message_filters/synchronizer.h>
 #include <pcl_conversions/pcl_conversions.h>
+#include <pg_core/workspace_config.h>
 #include <pg_msgs/Heightmap.h>
 #include <ros/package.h>
 #include <ros/ros.h>
@@ -25,6 +22,10 @@
 #include <tf2_eigen/tf2_eigen.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
+
+#include <cstring>
+#include <memory>
+#include <string>
 
 #include "pg_policy/heightmap_projector.h"
 
@@ -55,8 +56,8 @@ class HeightmapProjectorNode {
   }
 
  private:
-  using SyncPolicy = message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::Image,
-                                                                     sensor_msgs::CameraInfo>;
+  using SyncPolicy =
+      message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::Image, sensor_msgs::CameraInfo>;
   using Sync = message_filters::Synchronizer<SyncPolicy>;
 
   // world <- frame at stamp, else the latest; false (with a throttled warning) when tf has neither.
@@ -101,8 +102,9 @@ class HeightmapProjectorNode {
     const bool color_ok = (color->encoding == enc::RGB8 || color->encoding == enc::BGR8) &&
                           color->width == depth->width && color->height == depth->height;
     if (!color_ok || depth->is_bigendian || info->K[0] <= 0.0) {
-      ROS_WARN_THROTTLE(5.0, "heightmap_projector_node: need rgb8|bgr8 colour of the depth size, little-endian depth "
-                             "and a calibrated camera_info; got colour %s %ux%u, depth %ux%u",
+      ROS_WARN_THROTTLE(5.0,
+                        "heightmap_projector_node: need rgb8|bgr8 colour of the depth size, little-endian depth "
+                        "and a calibrated camera_info; got colour %s %ux%u, depth %ux%u",
                         color->encoding.c_str(), color->width, color->height, depth->width, depth->height);
       return;
     }
@@ -170,10 +172,11 @@ int main(int argc, char** argv) {
   ros::NodeHandle nh;
   ros::NodeHandle pnh("~");
   const std::string path =
-      pnh.param<std::string>("workspace_config", ros::package::getPath("pg_policy") + "/config/workspace.yaml");
+      pnh.param<std::string>("workspace_config", ros::package::getPath("pg_description") + "/config/workspace.yaml");
   std::unique_ptr<HeightmapProjectorNode> node;
   try {
-    node = std::make_unique<HeightmapProjectorNode>(nh, pnh, pg_policy::ProjectorConfig::fromYamlFile(path));
+    node = std::make_unique<HeightmapProjectorNode>(
+        nh, pnh, pg_policy::ProjectorConfig::fromWorkspace(pg_core::WorkspaceConfig::fromFile(path)));
   } catch (const std::exception& e) {
     ROS_FATAL("heightmap_projector_node: %s", e.what());
     return 1;

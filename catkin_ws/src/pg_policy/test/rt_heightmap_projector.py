@@ -5,7 +5,7 @@ A PyBullet scene (pg_sim World + packed/case01) is rendered once by the simulate
 organised PointCloud2 XYZRGB (float32 x, y, z and packed rgb, NaN where no return) in camera_color_optical_frame, and
 its images (rgb8 colour, 32FC1 aligned depth, camera_info) as the RealSense driver names them. The heightmaps that
 come back on /pg/heightmap (cloud input) and /pg/heightmap_depth (depth input) are compared with
-pg_policy.heightmap.from_camera_cloud on the same points: >= 99.9 % of cells equal within 1 mm in height, equal
+pg_core.heightmap.from_camera_cloud on the same points: >= 99.9 % of cells equal within 1 mm in height, equal
 validity masks, equal colours on valid cells. The world <- camera transform is broadcast here, statically, from the
 camera pose of config/workspace.yaml.
 """
@@ -25,8 +25,8 @@ from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import CameraInfo, Image, PointCloud2, PointField
 from std_msgs.msg import Header
 
-from pg_policy import heightmap as hm
-from pg_policy.geometry import load
+from pg_core import heightmap as hm
+from pg_core.geometry import load
 
 PKG = "pg_policy"
 SCENE = "packed/case01"
@@ -67,8 +67,8 @@ class HeightmapProjectorVsNumpy(unittest.TestCase):
     @classmethod
     def setUpClass(cls) -> None:
         rospy.init_node("rt_heightmap_projector")
-        from pg_sim.scene import load_scene
-        from pg_sim.world import World
+        from pg_sim.scenes.scene import load_scene
+        from pg_sim.world.world import World
 
         cls.geometry = g = load()
         with World(g) as world:

@@ -1,4 +1,4 @@
-"""pg_policy.bag_replay and the message conversions on a bag written here (no ROS master; needs pg_msgs built)."""
+"""pg_policy.ros.bag_replay and the message conversions on a bag written here (no ROS master; needs pg_msgs built)."""
 
 from __future__ import annotations
 
@@ -10,13 +10,14 @@ import pytest
 pg_msgs = pytest.importorskip("pg_msgs.msg", reason="pg_msgs not built/sourced (make build; scripts/ros_env.sh)")
 rosbag = pytest.importorskip("rosbag")
 
-from pg_policy.bag_replay import BagError, replay  # noqa: E402
-from pg_policy.decision import Decision  # noqa: E402
-from pg_policy.heightmap import Heightmap  # noqa: E402
-from pg_policy.palette import palette_rgb  # noqa: E402
-from pg_policy.policies import make_policy  # noqa: E402
+from pg_conversions import heightmap_msg  # noqa: E402
+from pg_core.heightmap import Heightmap  # noqa: E402
+from pg_core.palette import palette_rgb  # noqa: E402
+from pg_policy.decision.decision import Decision  # noqa: E402
+from pg_policy.policies.registry import make_policy  # noqa: E402
 from pg_policy.ros import convert  # noqa: E402
-from pg_policy.target_loop import ActionRecord, Execution, PolicyObservation  # noqa: E402
+from pg_policy.ros.bag_replay import BagError, replay  # noqa: E402
+from pg_policy.target_loop.target_loop import ActionRecord, Execution, PolicyObservation  # noqa: E402
 
 
 def scene_heightmap(shift: int) -> Heightmap:
@@ -39,7 +40,7 @@ def write_bag(path, tamper: bool = False) -> None:
         for i, (shift, grasped) in enumerate(((0, False), (3, True))):
             stamp = rospy.Time.from_sec(10.0 + 5 * i)
             hm = scene_heightmap(shift)
-            bag.write("/pg/heightmap", convert.heightmap_to_msg(hm, Header(frame_id="world", stamp=stamp)), stamp)
+            bag.write("/pg/heightmap", heightmap_msg.heightmap_to_msg(hm, Header(frame_id="world", stamp=stamp)), stamp)
             d = policy.act(PolicyObservation(hm, "green"))
             if tamper and i == 1:
                 d = Decision(d.primitive, (d.rotation + 1) % 16, d.row, d.col, d.q, d.yaw, d.x, d.y, d.z, d.grasp_q)
@@ -54,7 +55,7 @@ def test_heightmap_message_round_trip():
     from std_msgs.msg import Header
 
     hm = scene_heightmap(0)
-    back = convert.heightmap_from_msg(convert.heightmap_to_msg(hm, Header(stamp=rospy.Time(3))))
+    back = heightmap_msg.heightmap_from_msg(heightmap_msg.heightmap_to_msg(hm, Header(stamp=rospy.Time(3))))
     assert np.array_equal(back.color, hm.color) and np.array_equal(back.height, hm.height)
     assert np.array_equal(back.valid, hm.valid) and np.allclose(back.bounds, hm.bounds) and back.resolution == 0.002
 
@@ -63,10 +64,10 @@ def test_heightmap_message_with_wrong_encoding_is_refused():
     import rospy
     from std_msgs.msg import Header
 
-    msg = convert.heightmap_to_msg(scene_heightmap(0), Header(stamp=rospy.Time(3)))
+    msg = heightmap_msg.heightmap_to_msg(scene_heightmap(0), Header(stamp=rospy.Time(3)))
     msg.height.encoding = "16UC1"
     with pytest.raises(ValueError, match="encoding"):
-        convert.heightmap_from_msg(msg)
+        heightmap_msg.heightmap_from_msg(msg)
 
 
 def test_replay_reproduces_metrics_and_decisions(tmp_path):

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 import torch
 
-from pg_policy.bench import MODES, Case, Decider, bench_variant, crop_heightmap
-from pg_policy.cli import main
-from pg_policy.geometry import load
-from pg_policy.heightmap import Heightmap
-from pg_policy.inference import PolicyNets, target_window
+from pg_core.geometry import load
+from pg_core.heightmap import Heightmap
+from pg_policy.cli.main import main
+from pg_policy.evaluation.bench import MODES, Case, Decider, bench_variant, crop_heightmap
+from pg_policy.models.inference import PolicyNets, target_window
 
 torch.set_num_threads(2)
 
@@ -71,7 +71,7 @@ def test_modes_agree_with_full_map(nets, threshold):
 
 
 def test_bench_variant_rows_and_report(nets):
-    from pg_policy.bench import BenchResult
+    from pg_policy.evaluation.bench import BenchResult
 
     cases = [_case(0), _case(1)]
     rows = bench_variant("lite", cases, runs=2, modes=("vpg-loop", "batched", "window"), threshold=1e9,
@@ -95,7 +95,7 @@ def test_cli_bench_on_a_shipped_scene(capsys):
 
 
 def test_cases_file_round_trip_and_errors(tmp_path):
-    from pg_policy.bench import load_cases, save_cases
+    from pg_policy.evaluation.bench import load_cases, save_cases
 
     cases = [_case(0), _case(1)]
     path = tmp_path / "cases.npz"
@@ -116,7 +116,7 @@ def test_cases_file_round_trip_and_errors(tmp_path):
 
 
 def test_bench_cli_on_cases_file(tmp_path, capsys):
-    from pg_policy.bench import save_cases
+    from pg_policy.evaluation.bench import save_cases
 
     path = tmp_path / "cases.npz"
     save_cases([_case(0)], path)

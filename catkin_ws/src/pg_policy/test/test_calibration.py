@@ -1,4 +1,4 @@
-"""pg_policy.calibration: the shipped file equals the simulated camera; malformed files are clear errors."""
+"""pg_policy.perception.calibration: the shipped file equals the simulated camera; malformed files are clear errors."""
 
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pg_policy.calibration import CalibrationError, load_extrinsics
-from pg_policy.geometry import load
+from pg_core.geometry import load
+from pg_policy.perception.calibration import CalibrationError, load_extrinsics
 
-SHIPPED = Path(__file__).resolve().parents[1] / "config" / "camera_calibration.yaml"
+SHIPPED = Path(__file__).resolve().parents[2] / "pg_description" / "config" / "camera_calibration.yaml"
 
 
 def test_shipped_calibration_is_the_sim_camera():

@@ -4,8 +4,8 @@ import json
 
 import pytest
 
-from pg_policy.cli import main
-from pg_policy.compare_report import family_of, load_policy, markdown
+from pg_policy.cli.main import main
+from pg_policy.evaluation.compare_report import family_of, load_policy, markdown
 
 
 def _trial(scene, seed, completed, grasps, target_grasps, pushes):

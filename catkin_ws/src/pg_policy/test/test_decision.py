@@ -6,7 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from pg_policy.decision import (
+from pg_core.geometry import load
+from pg_core.heightmap import Heightmap
+from pg_core.target_mask import TargetNotVisible
+from pg_policy.decision.decision import (
     PUSH_RADIUS_M,
     Decision,
     action_pose,
@@ -16,9 +19,6 @@ from pg_policy.decision import (
     masked_max,
     push_region,
 )
-from pg_policy.geometry import load
-from pg_policy.heightmap import Heightmap
-from pg_policy.target_mask import TargetNotVisible
 
 GEO = load()
 PRIMS = GEO.primitives

@@ -1,13 +1,14 @@
-"""pg_policy.edge_guard: pushes that would carry the target out of the workspace give way to the best other push."""
+"""pg_policy.decision.rules.edge_guard: pushes that would carry the target out of the workspace give way to the best
+other push."""
 
 import math
 
 import numpy as np
 import pytest
 
-from pg_policy.edge_guard import EdgeGuard
-from pg_policy.geometry import load
-from pg_policy.heightmap import Heightmap, world_to_pixel
+from pg_core.geometry import load
+from pg_core.heightmap import Heightmap, world_to_pixel
+from pg_policy.decision.rules.edge_guard import EdgeGuard
 
 GEO = load()
 H = W = 224
@@ -94,7 +95,7 @@ def test_bad_parameters_are_refused():
 
 
 def test_the_policy_takes_the_guard_from_its_options_else_from_the_model_metadata():
-    from pg_policy.policies import PolicyOptions, edge_guard_of
+    from pg_policy.policies.registry import PolicyOptions, edge_guard_of
 
     on = {"thresholds": {"edge_guard": True}}
     assert edge_guard_of(PolicyOptions(), {}, GEO) is None

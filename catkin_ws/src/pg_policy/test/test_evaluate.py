@@ -10,9 +10,10 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from pg_policy.cli import main
-from pg_policy.decision import Decision
-from pg_policy.evaluate import (
+from pg_policy.cli.main import main
+from pg_policy.decision.decision import Decision
+from pg_policy.environment.sim_env import StepResult
+from pg_policy.evaluation.trials import (
     Limits,
     TrialRecord,
     check_seed,
@@ -23,7 +24,6 @@ from pg_policy.evaluate import (
     scene_metrics,
     summarize,
 )
-from pg_policy.sim_env import StepResult
 
 
 @dataclass
@@ -141,7 +141,7 @@ def test_seed_policy_and_scene_expansion():
 
 
 def test_jitter_moves_the_scene_rigidly_and_reproducibly():
-    from pg_sim.scene import load_scene
+    from pg_sim.scenes.scene import load_scene
 
     scene = load_scene("packed/case03")
     a = jitter_scene(scene, np.random.default_rng(3), 0.01, 0.2)
@@ -199,6 +199,6 @@ def test_cli_heuristic_on_packed_case01(tmp_path, capsys):
 
 @pytest.mark.parametrize(("workers", "cpus", "threads"), [(2, 2, 1), (16, 16, 1), (4, 16, 4), (3, 2, 1), (0, 8, 8)])
 def test_eval_workers_share_the_cpus_out(workers, cpus, threads):
-    from pg_policy.eval_cli import worker_threads
+    from pg_policy.cli.eval import worker_threads
 
     assert worker_threads(workers, cpus) == threads

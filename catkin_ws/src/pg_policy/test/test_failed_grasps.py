@@ -1,13 +1,13 @@
-"""pg_policy.failed_grasps: which Q values a remembered failed grasp suppresses."""
+"""pg_policy.decision.rules.failed_grasps: which Q values a remembered failed grasp suppresses."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from pg_policy.failed_grasps import FailedGrasps
-from pg_policy.geometry import load
-from pg_policy.heightmap import Heightmap, pixel_to_world
+from pg_core.geometry import load
+from pg_core.heightmap import Heightmap, pixel_to_world
+from pg_policy.decision.rules.failed_grasps import FailedGrasps
 
 G = load()
 N = G.heightmap.rows

@@ -1,13 +1,14 @@
-"""pg_policy.futile_pushes: which pushes count as futile and which Q values a remembered one suppresses."""
+"""pg_policy.decision.rules.futile_pushes: which pushes count as futile and which Q values a remembered one
+suppresses."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from pg_policy.futile_pushes import FutilePushes
-from pg_policy.geometry import load
-from pg_policy.heightmap import Heightmap, pixel_to_world
+from pg_core.geometry import load
+from pg_core.heightmap import Heightmap, pixel_to_world
+from pg_policy.decision.rules.futile_pushes import FutilePushes
 
 G = load()
 N = G.heightmap.rows

@@ -1,11 +1,12 @@
-"""pg_policy.grasp_check: the jaw-footprint test re-ranks Q_g's best cells without changing the grasp/push choice."""
+"""pg_policy.decision.rules.grasp_check: the jaw-footprint test re-ranks Q_g's best cells without changing the
+grasp/push choice."""
 
 import numpy as np
 import pytest
 
-from pg_policy.geometry import load
-from pg_policy.grasp_check import JawGraspCheck, make_grasp_check
-from pg_policy.heightmap import Heightmap
+from pg_core.geometry import load
+from pg_core.heightmap import Heightmap
+from pg_policy.decision.rules.grasp_check import JawGraspCheck, make_grasp_check
 
 GEO = load()
 H = W = 224

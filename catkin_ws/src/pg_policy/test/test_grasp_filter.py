@@ -1,11 +1,12 @@
-"""pg_policy.grasp_filter: spec parsing, the symmetric average and the spatial filters against hand computations."""
+"""pg_policy.decision.rules.grasp_filter: spec parsing, the symmetric average and the spatial filters against hand
+computations."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from pg_policy.grasp_filter import GraspFilter
+from pg_policy.decision.rules.grasp_filter import GraspFilter
 
 
 @pytest.mark.parametrize("spec, expected", [(None, "none"), ("", "none"), ("none", "none"), ("sym", "sym"),

@@ -1,6 +1,7 @@
 // gtest of the ROS-free heightmap projector core (include/pg_policy/heightmap_projector.h) on synthetic clouds and
 // depth images. The agreement with the numpy reference on a simulated scene is tested by heightmap_projector.test.
-#include "pg_policy/heightmap_projector.h"
+#include <gtest/gtest.h>
+#include <pg_core/workspace_config.h>
 
 #include <cmath>
 #include <cstdint>
@@ -10,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include <gtest/gtest.h>
+#include "pg_policy/heightmap_projector.h"
 
 namespace pg_policy {
 namespace {
@@ -23,6 +24,11 @@ ProjectorConfig smallConfig() {
   c.bounds = {0.0, 0.008, 0.0, 0.006, 0.1, 0.5};
   c.resolution = kRes;
   return c;
+}
+
+// The projector's configuration from the real pg_description/config/workspace.yaml, read by pg_core.
+ProjectorConfig workspaceYamlConfig() {
+  return ProjectorConfig::fromWorkspace(pg_core::WorkspaceConfig::fromFile(PG_WORKSPACE_YAML));
 }
 
 pcl::PointXYZRGB point(double x, double y, double z, std::uint8_t r = 0, std::uint8_t g = 0, std::uint8_t b = 0) {
@@ -51,15 +57,15 @@ int countValid(const HeightmapGrid& g) {
 // world <- camera_color_optical_frame of config/workspace.yaml: xyz (0, 0, 0.7), rpy (pi, 0, -pi/2).
 Eigen::Isometry3d cameraPose() {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = (Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.0, Eigen::Vector3d::UnitY()) *
-                Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()))
+  t.linear() = (Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitZ()) *
+                Eigen::AngleAxisd(0.0, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()))
                    .toRotationMatrix();
   t.translation() = Eigen::Vector3d(0.0, 0.0, 0.7);
   return t;
 }
 
 TEST(ProjectorConfig, LoadsWorkspaceYaml) {
-  const ProjectorConfig c = ProjectorConfig::fromYamlFile(PG_WORKSPACE_YAML);
+  const ProjectorConfig c = workspaceYamlConfig();
   EXPECT_DOUBLE_EQ(c.bounds.x_min, -0.224);
   EXPECT_DOUBLE_EQ(c.bounds.x_max, 0.224);
   EXPECT_DOUBLE_EQ(c.bounds.y_min, -0.224);
@@ -71,24 +77,30 @@ TEST(ProjectorConfig, LoadsWorkspaceYaml) {
   const HeightmapProjector projector(c);
   EXPECT_EQ(projector.rows(), 224);
   EXPECT_EQ(projector.cols(), 224);
+  // The projector's grid is the one pg_core::WorkspaceConfig defines.
+  const pg_core::WorkspaceConfig ws = pg_core::WorkspaceConfig::fromFile(PG_WORKSPACE_YAML);
+  EXPECT_EQ(projector.rows(), ws.rows());
+  EXPECT_EQ(projector.cols(), ws.cols());
 }
 
+// Configuration errors are pg_core::WorkspaceConfig's (see its own test); the projector adds its own checks.
 TEST(ProjectorConfig, ErrorsNameTheKey) {
   const std::string ok_frames = "frames: {world: world}\n";
   try {
-    ProjectorConfig::fromYamlString(ok_frames + "workspace: {x: [0, 1], y: [0, 1]}\nheightmap: {resolution: 0.1}\n");
+    pg_core::WorkspaceConfig::fromString(ok_frames +
+                                         "workspace: {x: [0, 1], y: [0, 1]}\nheightmap: {resolution: 0.1}\n");
     FAIL() << "expected std::runtime_error";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("workspace.z"), std::string::npos) << e.what();
   }
   try {
-    ProjectorConfig::fromYamlString(ok_frames +
-                                    "workspace: {x: [0, 1], y: [0, 1], z: [0, 1]}\nheightmap: {resolution: -1}\n");
+    pg_core::WorkspaceConfig::fromString(ok_frames +
+                                         "workspace: {x: [0, 1], y: [0, 1], z: [0, 1]}\nheightmap: {resolution: -1}\n");
     FAIL() << "expected std::runtime_error";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("heightmap.resolution"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(ProjectorConfig::fromYamlFile("/nonexistent/workspace.yaml"), std::runtime_error);
+  EXPECT_THROW(pg_core::WorkspaceConfig::fromFile("/nonexistent/workspace.yaml"), std::runtime_error);
   ProjectorConfig bad = smallConfig();
   bad.resolution = 0.0;
   EXPECT_THROW(HeightmapProjector{bad}, std::invalid_argument);
@@ -237,10 +249,10 @@ struct SyntheticFrame {
       for (int u = 0; u < kW; ++u) {
         const int i = v * kW + u;
         // Depths are multiples of 125 mm so that mm / 1000 is exact in float too.
-        std::uint16_t mm = 750;                                      // below the table: height clipped to 0
-        if (u > 100 && u < 540) mm = 625;                            // 0.075 m above the table
-        if (u > 250 && u < 400 && v > 150 && v < 300) mm = 500;      // box top, 0.2 m
-        if ((u * 7 + v * 3) % 101 == 0) mm = 0;                       // holes: no return
+        std::uint16_t mm = 750;                                  // below the table: height clipped to 0
+        if (u > 100 && u < 540) mm = 625;                        // 0.075 m above the table
+        if (u > 250 && u < 400 && v > 150 && v < 300) mm = 500;  // box top, 0.2 m
+        if ((u * 7 + v * 3) % 101 == 0) mm = 0;                  // holes: no return
         depth_mm[i] = mm;
         depth_m[i] = static_cast<float>(mm) / 1000.0f;
         // One colour per surface (as a rendered flat face): within a cell the top points tie to ~1 ulp, and which
@@ -263,7 +275,7 @@ struct SyntheticFrame {
 };
 
 TEST(HeightmapProjector, DepthPathMatchesCloudPath) {
-  HeightmapProjector projector(ProjectorConfig::fromYamlFile(PG_WORKSPACE_YAML));
+  HeightmapProjector projector(workspaceYamlConfig());
   const SyntheticFrame f;
   HeightmapGrid from_depth;
   projector.projectDepth(f.metres(), f.color(), f.k, cameraPose(), from_depth);
@@ -297,7 +309,7 @@ TEST(HeightmapProjector, DepthPathMatchesCloudPath) {
 }
 
 TEST(HeightmapProjector, MillimetreDepthEqualsMetreDepth) {
-  HeightmapProjector projector(ProjectorConfig::fromYamlFile(PG_WORKSPACE_YAML));
+  HeightmapProjector projector(workspaceYamlConfig());
   const SyntheticFrame f;
   HeightmapGrid m;
   HeightmapGrid mm;
@@ -309,7 +321,7 @@ TEST(HeightmapProjector, MillimetreDepthEqualsMetreDepth) {
 }
 
 TEST(HeightmapProjector, BgrColourAndNoColour) {
-  HeightmapProjector projector(ProjectorConfig::fromYamlFile(PG_WORKSPACE_YAML));
+  HeightmapProjector projector(workspaceYamlConfig());
   const SyntheticFrame f;
   HeightmapGrid rgb;
   HeightmapGrid bgr;

@@ -1,6 +1,6 @@
 """pushgrasp infer: one decision drawn without acting, and a rollout with one PNG per decision (real PyBullet)."""
 
-from pg_policy.cli import main
+from pg_policy.cli.main import main
 
 
 def test_infer_draws_one_decision(tmp_path, capsys):

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 import torch
 
-from pg_policy.geometry import load
-from pg_policy.heightmap import Heightmap
-from pg_policy.inference import PolicyNets, target_window
-from pg_policy.model_io import METADATA_NAME, ModelLoadError, export_qnet, load_qnet, read_metadata
-from pg_policy.nets import QNetConfig, build_qnet
+from pg_core.geometry import load
+from pg_core.heightmap import Heightmap
+from pg_policy.models.inference import PolicyNets, target_window
+from pg_policy.models.model_io import METADATA_NAME, ModelLoadError, export_qnet, load_qnet, read_metadata
+from pg_policy.models.nets import QNetConfig, build_qnet
 
 torch.set_num_threads(2)
 

@@ -7,9 +7,9 @@ import pytest
 import torch
 import torch.nn.functional as F
 
-from pg_policy.nets import BACKBONES, QNetConfig, build_qnet, canvas_size
-from pg_policy.nets.densenet import DenseNet121Trunk, PretrainedError, load_pretrained, rename_legacy_keys
-from pg_policy.nets.lite import LiteTrunk
+from pg_policy.models.nets import BACKBONES, QNetConfig, build_qnet, canvas_size
+from pg_policy.models.nets.densenet import DenseNet121Trunk, PretrainedError, load_pretrained, rename_legacy_keys
+from pg_policy.models.nets.lite import LiteTrunk
 
 torch.set_num_threads(2)
 

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 import torch
 
-from pg_policy.cli import main
-from pg_policy.offline import OfflineConfig, OfflineTrainer, pack
-from pg_policy.replay import ReplayBuffer, Transition
+from pg_policy.cli.main import main
+from pg_policy.training.experience_replay import ReplayBuffer, Transition
+from pg_policy.training.offline import OfflineConfig, OfflineTrainer, pack
 
 torch.set_num_threads(2)
 SHAPE = (32, 32)

@@ -1,9 +1,10 @@
-"""pg_policy.paired: trials matched on (scene, seed), discordant completions, exact sign test, GS difference."""
+"""pg_policy.evaluation.paired: trials matched on (scene, seed), discordant completions, exact sign test, GS
+difference."""
 
 import pytest
 
-from pg_policy.evaluate import TrialRecord
-from pg_policy.paired import paired, sign_test_p
+from pg_policy.evaluation.paired import paired, sign_test_p
+from pg_policy.evaluation.trials import TrialRecord
 
 
 def _t(scene, seed, completed, grasps=1, target_grasps=None):

@@ -8,10 +8,10 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from pg_policy.geometry import load
-from pg_policy.heightmap import Heightmap, world_to_pixel
-from pg_policy.palette import PALETTE
-from pg_policy.policies import (
+from pg_core.geometry import load
+from pg_core.heightmap import Heightmap, world_to_pixel
+from pg_core.palette import PALETTE
+from pg_policy.policies.registry import (
     REGISTRY,
     HeuristicPolicy,
     Policy,
@@ -120,9 +120,9 @@ def test_heuristic_does_not_repeat_a_failed_grasp():
 
 
 def test_heuristic_grasps_an_isolated_target_in_the_sim():
-    from pg_policy.sim_env import SimEnv
-    from pg_sim.colors import resolve_color
-    from pg_sim.scene import ObjectSpec, SceneSpec
+    from pg_policy.environment.sim_env import SimEnv
+    from pg_sim.scenes.colors import resolve_color
+    from pg_sim.scenes.scene import ObjectSpec, SceneSpec
 
     objs = (ObjectSpec("cube", None, resolve_color("green"), (0.04, -0.03, 0.0226, 0, 0, 0.4), target=True,
                        name="target"),
@@ -139,8 +139,8 @@ def test_heuristic_grasps_an_isolated_target_in_the_sim():
 
 @pytest.fixture(scope="module")
 def model_dir(tmp_path_factory):
-    from pg_policy.model_io import export_qnet
-    from pg_policy.nets import QNetConfig, build_qnet
+    from pg_policy.models.model_io import export_qnet
+    from pg_policy.models.nets import QNetConfig, build_qnet
 
     out = tmp_path_factory.mktemp("models")
     for i, role in enumerate(("grasp", "push")):
@@ -208,7 +208,7 @@ def test_learned_policy_does_not_repeat_a_futile_push(model_dir):
 
 
 def test_shipped_models_resolve_by_folder_name():
-    from pg_policy.policies import SHIPPED_MODELS
+    from pg_policy.policies.registry import SHIPPED_MODELS
 
     pol = make_policy("lite")
     assert pol.name == "learned" and pol.model_paths[0] == SHIPPED_MODELS / "lite" / "grasp.pt"
@@ -225,9 +225,9 @@ def test_heuristic_uncovers_a_hidden_target():
 
 
 def test_learned_policies_apply_the_grasp_filter(model_dir):
-    from pg_policy.decision import masked_max
-    from pg_policy.grasp_filter import GraspFilter
-    from pg_policy.policies import observed_target
+    from pg_policy.decision.decision import masked_max
+    from pg_policy.decision.rules.grasp_filter import GraspFilter
+    from pg_policy.policies.registry import observed_target
 
     obs = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (-0.1, 0.1, CUBE, CUBE, "blue")])
     raw = make_policy("learned", PolicyOptions(models=(model_dir,)))  # metadata has no filter: none
@@ -250,7 +250,7 @@ def test_learned_policies_apply_the_grasp_filter(model_dir):
 def test_grasp_filter_default_comes_from_the_model_metadata(model_dir, tmp_path):
     import shutil
 
-    from pg_policy.model_io import export_qnet, load_qnet
+    from pg_policy.models.model_io import export_qnet, load_qnet
 
     for role in ("grasp", "push"):
         net, meta = load_qnet(model_dir / f"{role}.pt")
@@ -262,7 +262,7 @@ def test_grasp_filter_default_comes_from_the_model_metadata(model_dir, tmp_path)
 
 
 def test_grasp_check_comes_from_the_option_else_the_model_metadata(model_dir, tmp_path):
-    from pg_policy.model_io import export_qnet, load_qnet
+    from pg_policy.models.model_io import export_qnet, load_qnet
 
     assert make_policy("learned", PolicyOptions(models=(model_dir,))).grasp_check is None  # no metadata entry
     for role in ("grasp", "push"):
@@ -286,8 +286,8 @@ def test_the_shipped_model_brings_its_test_time_rules():
 
 def test_the_grasp_check_moves_a_blocked_grasp_and_keeps_the_decision(model_dir):
     # The check only re-ranks Q_g: same primitive and same compared value; the chosen grasp passes the jaw test.
-    from pg_policy.grasp_check import JawGraspCheck
-    from pg_policy.policies import observed_target
+    from pg_policy.decision.rules.grasp_check import JawGraspCheck
+    from pg_policy.policies.registry import observed_target
 
     obs = _scene([(0.0, 0.0, CUBE, CUBE, "green"), (0.06, 0.0, CUBE, CUBE, "blue"), (-0.06, 0.0, CUBE, CUBE, "red")])
     plain = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=-1e9))
@@ -304,7 +304,7 @@ def test_the_grasp_check_moves_a_blocked_grasp_and_keeps_the_decision(model_dir)
 def test_the_landing_guard_moves_a_push_off_the_objects_and_keeps_the_decision(model_dir):
     # A target boxed in on all four sides, grasp threshold +inf: every decision is a push. The guard only re-ranks
     # Q_p: same compared push value, and the chosen push's closed jaw lands beside the objects, not on them.
-    from pg_policy.push_landing import LandingGuard
+    from pg_policy.decision.rules.push_landing import LandingGuard
 
     obs = _scene([(0.0, 0.0, CUBE, CUBE, "green"), (0.05, 0.0, CUBE, CUBE, "blue"), (-0.05, 0.0, CUBE, CUBE, "red"),
                   (0.0, 0.05, CUBE, CUBE, "yellow"), (0.0, -0.05, CUBE, CUBE, "orange")])

@@ -1,11 +1,11 @@
-"""pg_policy.push_landing: pushes whose closed fingers would come down on top of an object give way."""
+"""pg_policy.decision.rules.push_landing: pushes whose closed fingers would come down on top of an object give way."""
 
 import numpy as np
 import pytest
 
-from pg_policy.geometry import load
-from pg_policy.heightmap import Heightmap, world_to_pixel
-from pg_policy.push_landing import LandingGuard
+from pg_core.geometry import load
+from pg_core.heightmap import Heightmap, world_to_pixel
+from pg_policy.decision.rules.push_landing import LandingGuard
 
 GEO = load()
 H = W = 224
@@ -62,7 +62,7 @@ def test_bad_parameters_are_refused():
 
 
 def test_the_policy_takes_the_guard_from_its_options_else_from_the_model_metadata():
-    from pg_policy.policies import PolicyOptions, push_landing_of
+    from pg_policy.policies.registry import PolicyOptions, push_landing_of
 
     on = {"thresholds": {"push_landing": True}}
     assert push_landing_of(PolicyOptions(), {}, GEO) is None

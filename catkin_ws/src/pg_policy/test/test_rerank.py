@@ -1,8 +1,8 @@
-"""pg_policy.rerank: the best accepted cell takes the best value; nothing accepted leaves the map as it was."""
+"""pg_policy.decision.rerank: the best accepted cell takes the best value; nothing accepted leaves the map as it was."""
 
 import numpy as np
 
-from pg_policy.rerank import rerank
+from pg_policy.decision.rerank import rerank
 
 
 def test_the_best_accepted_cell_takes_the_best_value_and_those_above_it_are_dropped():

@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from pg_policy import rewards
-from pg_policy.heightmap import Heightmap
+from pg_core.heightmap import Heightmap
+from pg_policy.training import rewards
 
 RES = 0.002
 N = 224

@@ -1,8 +1,8 @@
-"""pg_policy.stages: which primitive each training stage takes before exploration, and epsilon."""
+"""pg_policy.training.stages: which primitive each training stage takes before exploration, and epsilon."""
 
 from __future__ import annotations
 
-from pg_policy.stages import STAGES, choose_primitive, epsilon
+from pg_policy.training.stages import STAGES, choose_primitive, epsilon
 
 
 def test_grasp_stages_always_grasp():

@@ -1,4 +1,5 @@
-"""pg_policy.target_loop with a scripted heightmap source, executor and policy (the node's ROS-free core)."""
+"""pg_policy.target_loop.target_loop with a scripted heightmap source, executor and policy (the node's ROS-free
+core)."""
 
 from __future__ import annotations
 
@@ -7,10 +8,17 @@ import math
 import numpy as np
 import pytest
 
-from pg_policy.decision import Decision
-from pg_policy.heightmap import Heightmap
-from pg_policy.palette import palette_rgb
-from pg_policy.target_loop import Execution, LoopError, LoopLimits, NoHeightmap, StampedHeightmap, TargetLoop
+from pg_core.heightmap import Heightmap
+from pg_core.palette import palette_rgb
+from pg_policy.decision.decision import Decision
+from pg_policy.target_loop.target_loop import (
+    Execution,
+    LoopError,
+    LoopLimits,
+    NoHeightmap,
+    StampedHeightmap,
+    TargetLoop,
+)
 
 N = 224
 

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pg_policy.geometry import Geometry, load
-from pg_sim.urdf_builder import ARM_LINKS, ARMS
+from pg_core.geometry import Geometry, load
+from pg_sim.robot.urdf_builder import ARM_LINKS, ARMS
 
 p = pytest.importorskip("pybullet")
 

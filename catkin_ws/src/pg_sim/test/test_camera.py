@@ -4,9 +4,9 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from pg_policy import heightmap as hm
-from pg_sim.camera import project_points
-from pg_sim.world import World
+from pg_core import heightmap as hm
+from pg_sim.world.camera import project_points
+from pg_sim.world.world import World
 
 
 @pytest.fixture(scope="module")

@@ -5,12 +5,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pg_policy import heightmap as hm
-from pg_policy.action_geometry import grasp_z, push_z
-from pg_sim.colors import resolve_color
-from pg_sim.primitives import PrimitiveExecutor, PrimitiveRefused
-from pg_sim.scene import ObjectSpec, SceneSpec
-from pg_sim.world import World
+from pg_core import heightmap as hm
+from pg_core.action_geometry import grasp_z, push_z
+from pg_sim.scenes.colors import resolve_color
+from pg_sim.scenes.scene import ObjectSpec, SceneSpec
+from pg_sim.world.primitives import PrimitiveExecutor, PrimitiveRefused
+from pg_sim.world.world import World
 
 STEP = 2 * np.pi / 16
 

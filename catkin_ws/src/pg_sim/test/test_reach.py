@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pg_sim.kinematics import arm_branch, down_pose, tcp_fk
-from pg_sim.urdf_builder import ARMS
+from pg_sim.robot.kinematics import arm_branch, down_pose, tcp_fk
+from pg_sim.robot.urdf_builder import ARMS
 
 p = pytest.importorskip("pybullet")
 

@@ -1,4 +1,4 @@
-"""pg_sim.ros_conversions: runtime data <-> ROS messages (message classes only; no master, no node).
+"""pg_sim.ros.ros_conversions: runtime data <-> ROS messages (message classes only; no master, no node).
 
 Skipped where the ROS message packages are not importable; the pg_msgs parts also need the catkin devel space.
 """
@@ -17,11 +17,17 @@ from genpy import Duration, Time  # noqa: E402
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint  # noqa: E402
 from visualization_msgs.msg import Marker  # noqa: E402
 
-from pg_policy.geometry import load  # noqa: E402
-from pg_sim import ros_conversions as conv  # noqa: E402
-from pg_sim.runtime_types import CameraCapture, JointStateData, ObjectState, ResetResult, SceneState  # noqa: E402
-from pg_sim.scene import ObjectSpec  # noqa: E402
-from pg_sim.sensor_data import CloudBuilder, marker_parts, pose_parts  # noqa: E402
+from pg_core.geometry import load  # noqa: E402
+from pg_sim.ros import ros_conversions as conv  # noqa: E402
+from pg_sim.runtime.runtime_types import (  # noqa: E402
+    CameraCapture,
+    JointStateData,
+    ObjectState,
+    ResetResult,
+    SceneState,
+)
+from pg_sim.scenes.scene import ObjectSpec  # noqa: E402
+from pg_sim.world.sensor_data import CloudBuilder, marker_parts, pose_parts  # noqa: E402
 
 FRAME = "camera_color_optical_frame"
 

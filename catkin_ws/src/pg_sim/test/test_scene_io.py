@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from pg_sim.colors import PALETTE
-from pg_sim.scene import (
+from pg_sim.scenes.colors import PALETTE
+from pg_sim.scenes.scene import (
     ObjectSpec,
     SceneError,
     SceneSpec,

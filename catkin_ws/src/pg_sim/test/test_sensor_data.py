@@ -1,14 +1,16 @@
-"""pg_sim.sensor_data: organised cloud layout (shape, dtype, NaN, colour packing), NaN depth, object marker parts."""
+"""pg_sim.world.sensor_data: organised cloud layout (shape, dtype, NaN, colour packing), NaN depth, object marker
+parts."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from pg_policy.geometry import load
-from pg_sim.camera import depth_to_points
-from pg_sim.scene import ObjectSpec
-from pg_sim.sensor_data import (
+from pg_core.geometry import load
+from pg_sim.scenes.scene import ObjectSpec
+from pg_sim.scenes.shapes import REGISTRY
+from pg_sim.world.camera import depth_to_points
+from pg_sim.world.sensor_data import (
     CLOUD_DTYPE,
     CLOUD_FIELDS,
     CloudBuilder,
@@ -18,7 +20,6 @@ from pg_sim.sensor_data import (
     pose_parts,
     unpack_rgb,
 )
-from pg_sim.shapes import REGISTRY
 
 
 @pytest.fixture(scope="module")

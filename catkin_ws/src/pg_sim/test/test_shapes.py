@@ -10,10 +10,10 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from pg_sim import meshes, shapes
-from pg_sim.colors import COLORS, PALETTE, color_name, nearest_color_name, resolve_color
-from pg_sim.objects import object_pose, spawn_object
-from pg_sim.scene import ObjectSpec
+from pg_sim.scenes import meshes, shapes
+from pg_sim.scenes.colors import COLORS, PALETTE, color_name, nearest_color_name, resolve_color
+from pg_sim.scenes.objects import object_pose, spawn_object
+from pg_sim.scenes.scene import ObjectSpec
 
 BLOCKS = ("cube", "rect", "triangle", "arch", "cylinder", "half_cube", "half_cylinder")
 NOMINAL = {  # DESIGN.md section 6, metres

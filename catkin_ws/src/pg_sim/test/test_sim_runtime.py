@@ -1,4 +1,5 @@
-"""pg_sim.sim_runtime: the sim node's ROS-free core in PyBullet DIRECT worlds (trajectories under physics, grippers,
+"""pg_sim.runtime.sim_runtime: the sim node's ROS-free core in PyBullet DIRECT worlds (trajectories under physics,
+grippers,
 joint states, camera, scene state, resets that validate first, output rates, pacing, thread-safe submissions)."""
 
 from __future__ import annotations
@@ -8,12 +9,12 @@ import threading
 import numpy as np
 import pytest
 
-from pg_sim.pacer import Pacer
-from pg_sim.runtime_types import ResetRequest
-from pg_sim.scene import SceneError
-from pg_sim.sensor_data import CLOUD_DTYPE
-from pg_sim.sim_runtime import RuntimeConfig, SimRuntime
-from pg_sim.trajectory import JointTrajectory, TrajectoryPoint
+from pg_sim.robot.trajectory import JointTrajectory, TrajectoryPoint
+from pg_sim.runtime.runtime_types import ResetRequest
+from pg_sim.runtime.sim_runtime import RuntimeConfig, SimRuntime
+from pg_sim.scenes.scene import SceneError
+from pg_sim.world.pacer import Pacer
+from pg_sim.world.sensor_data import CLOUD_DTYPE
 
 FAST = dict(real_time_factor=0.0, idle_real_time_factor=0.0)
 
@@ -262,8 +263,8 @@ def test_pacer_throttles_idle_and_not_busy():
 
 
 def test_objects_outside_the_workspace_or_off_the_table_are_left(fresh):
-    from pg_sim.objects import set_object_pose
-    from pg_sim.sim_runtime import FALLEN_Z
+    from pg_sim.runtime.sim_runtime import FALLEN_Z
+    from pg_sim.scenes.objects import set_object_pose
 
     bodies = list(fresh.world.objects)
     target = fresh.world.target_id

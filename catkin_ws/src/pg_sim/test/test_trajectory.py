@@ -1,11 +1,11 @@
-"""pg_sim.trajectory: JointTrajectory semantics, interpolation, replacement, validation and the velocity limit."""
+"""pg_sim.robot.trajectory: JointTrajectory semantics, interpolation, replacement, validation and the velocity limit."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from pg_sim.trajectory import JointTrajectory, TrajectoryError, TrajectoryFollower, TrajectoryPoint, build_spline
+from pg_sim.robot.trajectory import JointTrajectory, TrajectoryError, TrajectoryFollower, TrajectoryPoint, build_spline
 
 NAMES = tuple(f"left_j{i}" for i in range(6))
 DT = 1.0 / 240.0

@@ -1,7 +1,7 @@
 """The one robot URDF (DESIGN.md section 3): generated from the geometry config, committed, and exactly the DH model.
 
 Checks the committed file against `build_urdf(load())`, its structure (names, limits, masses, inertias, DH joint
-origins, gripper, camera frames), PyBullet forward kinematics against `pg_sim.kinematics.dh_fk` on random
+origins, gripper, camera frames), PyBullet forward kinematics against `pg_sim.robot.kinematics.dh_fk` on random
 configurations, and that the camera sees only the table with the arms at home.
 """
 
@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pg_sim import urdf_builder
-from pg_sim.kinematics import arm_base_pose, dh_fk, rpy_matrix
-from pg_sim.urdf_builder import ARM_LINKS, ARMS, build_urdf
+from pg_sim.robot import urdf_builder
+from pg_sim.robot.kinematics import arm_base_pose, dh_fk, rpy_matrix
+from pg_sim.robot.urdf_builder import ARM_LINKS, ARMS, build_urdf
 
 p = pytest.importorskip("pybullet")
 
@@ -47,7 +47,7 @@ def _rot_err(a: np.ndarray, b: np.ndarray) -> float:
 def test_committed_urdf_is_generated_from_config(urdf_geometry):
     committed = urdf_geometry.robot.urdf.read_text()
     assert committed == build_urdf(urdf_geometry), (
-        "pushgrasp.urdf is stale: run `python -m pg_sim.urdf_builder` after changing workspace.yaml"
+        "pushgrasp.urdf is stale: run `python -m pg_sim.robot.urdf_builder` after changing workspace.yaml"
     )
 
 
@@ -317,7 +317,7 @@ def test_camera_sees_only_the_table_with_arms_at_home(urdf_robot):
 
 
 def test_rpy_round_trip():
-    from pg_sim.kinematics import matrix_rpy
+    from pg_sim.robot.kinematics import matrix_rpy
 
     rng = np.random.default_rng(3)
     for _ in range(100):

@@ -1,4 +1,4 @@
-"""pg_sim.urdf_filter on the shipped URDF."""
+"""pg_sim.robot.urdf_filter on the shipped URDF."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from pg_policy.geometry import load
-from pg_sim.urdf_filter import drop_links
+from pg_core.geometry import load
+from pg_sim.robot.urdf_filter import drop_links
 
 
 def test_dropping_the_camera_link_drops_its_subtree_only():

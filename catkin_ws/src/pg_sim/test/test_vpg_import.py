@@ -11,9 +11,9 @@ import pybullet as p
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pg_sim.objects import spawn_scene
-from pg_sim.scene import SceneError, load_scene
-from pg_sim.vpg_import import import_vpg, main, shape_for_mesh
+from pg_sim.scenes.objects import spawn_scene
+from pg_sim.scenes.scene import SceneError, load_scene
+from pg_sim.scenes.vpg_import import import_vpg, main, shape_for_mesh
 
 SHARED = Path(os.environ.get("PG_SHARED") or Path(__file__).resolve().parents[4] / ".." / "shared").resolve()
 REFERENCE = SHARED / "reference"

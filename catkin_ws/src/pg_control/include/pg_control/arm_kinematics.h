@@ -6,6 +6,8 @@
 #ifndef PG_CONTROL_ARM_KINEMATICS_H
 #define PG_CONTROL_ARM_KINEMATICS_H
 
+#include <pg_core/workspace_config.h>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <memory>
@@ -15,7 +17,6 @@
 #include <vector>
 
 #include "pg_control/urdf_chain.h"
-#include "pg_control/workspace_config.h"
 
 namespace KDL {
 class ChainIkSolverPos_LMA;
@@ -25,7 +26,7 @@ namespace pg_control {
 
 using JointVector = Eigen::VectorXd;
 
-// One of the 8 closed-form UR IK branches, with the signs of pg_sim.ur_ik (and of `robot.arms.<arm>.ik_branch`):
+// One of the 8 closed-form UR IK branches, with the signs of pg_sim.robot.ur_ik (and of `robot.arms.<arm>.ik_branch`):
 // shoulder: sign s1 in q1 = atan2(p05) + s1 acos(d4 / r) + pi/2 (p05 = wrist centre, DH frame 5 origin);
 // wrist: sign of sin(q5); elbow: sign of sin(q3).
 struct IkBranch {
@@ -37,12 +38,12 @@ struct IkBranch {
 };
 
 struct IkOptions {
-  bool require_branch = true;         // accept only solutions on the arm's configured branch
-  int max_restarts = 30;              // random restarts after the attempt from the seed
-  int max_solutions = 1;              // without require_branch: collect this many, return the closest to the seed
-  unsigned int random_seed = 1;       // restart seeds are reproducible (same request -> same answer)
-  double position_tolerance = 1e-5;   // accepted TCP position residual (m)
-  double rotation_tolerance = 1e-4;   // accepted TCP orientation residual (rad)
+  bool require_branch = true;        // accept only solutions on the arm's configured branch
+  int max_restarts = 30;             // random restarts after the attempt from the seed
+  int max_solutions = 1;             // without require_branch: collect this many, return the closest to the seed
+  unsigned int random_seed = 1;      // restart seeds are reproducible (same request -> same answer)
+  double position_tolerance = 1e-5;  // accepted TCP position residual (m)
+  double rotation_tolerance = 1e-4;  // accepted TCP orientation residual (rad)
 };
 
 class ArmKinematics {
@@ -50,8 +51,8 @@ class ArmKinematics {
   // Arm `arm.name` of `model` (root link `world_frame`). Joint limits are the intersection of the URDF's and the
   // config's (`robot.joint_lower/upper`), the velocity limit the smaller of the two, the branch `arm.ik_branch`.
   // Throws std::runtime_error when a link is missing or the chain does not hold exactly 6 movable joints.
-  ArmKinematics(const urdf::ModelInterface& model, const std::string& world_frame, const ArmSpec& arm,
-                const RobotParams& robot);
+  ArmKinematics(const urdf::ModelInterface& model, const std::string& world_frame, const pg_core::ArmSpec& arm,
+                const pg_core::RobotParams& robot);
   ~ArmKinematics();
   ArmKinematics(const ArmKinematics&) = delete;  // the KDL solvers refer to chain_
   ArmKinematics& operator=(const ArmKinematics&) = delete;
@@ -78,9 +79,9 @@ class ArmKinematics {
 
   // Joint angles (rad) putting the TCP at `world_T_tcp`, nearest `seed`: KDL LMA from the seed, then from seeded
   // random restarts; each result is shifted by multiples of 2 pi towards the seed within the joint limits (as
-  // pg_sim.ur_ik.closest) and verified with FK. With require_branch, the solution lies on branch(), where it is unique
-  // up to those shifts, so the controller picks the same configuration as the simulator. std::nullopt when none is
-  // found. Throws std::invalid_argument for a seed that is not 6 finite numbers. Thread-safe.
+  // pg_sim.robot.ur_ik.closest) and verified with FK. With require_branch, the solution lies on branch(), where it is
+  // unique up to those shifts, so the controller picks the same configuration as the simulator. std::nullopt when none
+  // is found. Throws std::invalid_argument for a seed that is not 6 finite numbers. Thread-safe.
   std::optional<JointVector> solve(const Eigen::Isometry3d& world_T_tcp, const JointVector& seed,
                                    const IkOptions& options = IkOptions()) const;
   // Same for the tool-down TCP pose at `position` (world, m) with closing axis (cos yaw, sin yaw, 0).

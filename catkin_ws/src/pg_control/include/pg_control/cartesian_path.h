@@ -1,5 +1,5 @@
 // Straight-line Cartesian motion of the tool-down TCP turned into joint waypoints (ROS-free), as
-// pg_sim.primitives.PrimitiveExecutor._plan_arm: every leg a -> b of a polyline is cut into
+// pg_sim.world.primitives.PrimitiveExecutor._plan_arm: every leg a -> b of a polyline is cut into
 // n = max(1, ceil(|b - a| / step)) equal steps, and each waypoint's IK is seeded from the previous waypoint.
 #ifndef PG_CONTROL_CARTESIAN_PATH_H
 #define PG_CONTROL_CARTESIAN_PATH_H

@@ -1,5 +1,5 @@
 // Push and grasp primitives (DESIGN.md section 4, docs/ARCHITECTURE.md) planned into timed joint-space steps,
-// ROS-free. The step sequence, heights, speeds, arm choice and refusals are those of pg_sim.primitives:
+// ROS-free. The step sequence, heights, speeds, arm choice and refusals are those of pg_sim.world.primitives:
 //
 //   grasp: open gripper (no wait) -> transit (joint space, current -> above the pre-pose at transit_height) ->
 //          line above -> pre-grasp -> grasp point (cartesian_speed) -> close gripper (wait) -> lift by lift_height
@@ -15,6 +15,8 @@
 #ifndef PG_CONTROL_PRIMITIVE_PLANNER_H
 #define PG_CONTROL_PRIMITIVE_PLANNER_H
 
+#include <pg_core/workspace_config.h>
+
 #include <Eigen/Core>
 #include <map>
 #include <memory>
@@ -24,7 +26,6 @@
 
 #include "pg_control/arm_kinematics.h"
 #include "pg_control/time_parameterization.h"
-#include "pg_control/workspace_config.h"
 
 namespace pg_control {
 
@@ -70,9 +71,9 @@ class PrimitivePlanner {
  public:
   // Builds the kinematics of every arm of `config` from the URDF `model` (root link = `world`). Throws
   // std::runtime_error when the URDF and the config disagree (missing links, wrong joint count).
-  PrimitivePlanner(const WorkspaceConfig& config, const urdf::ModelInterface& model);
+  PrimitivePlanner(const pg_core::WorkspaceConfig& config, const urdf::ModelInterface& model);
 
-  const WorkspaceConfig& config() const { return config_; }
+  const pg_core::WorkspaceConfig& config() const { return config_; }
   std::vector<std::string> armNames() const;
   // Throws std::invalid_argument for an unknown arm.
   const ArmKinematics& arm(const std::string& name) const;
@@ -98,7 +99,7 @@ class PrimitivePlanner {
   PrimitivePlan planArm(const std::string& name, const PrimitiveRequest& request,
                         const std::vector<std::vector<Eigen::Vector3d>>& lines, const JointVector& current) const;
 
-  WorkspaceConfig config_;
+  pg_core::WorkspaceConfig config_;
   std::map<std::string, std::unique_ptr<ArmKinematics>> arms_;
 };
 

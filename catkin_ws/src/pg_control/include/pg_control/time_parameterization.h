@@ -1,7 +1,7 @@
 // Timing law of joint-space paths (ROS-free): when each waypoint is reached and with what joint velocity, so that a
 // joint_trajectory_controller's cubic interpolation stays within the joint velocity limit.
 //
-// Segment durations follow pg_sim.arm_driver.ArmDriver.follow: T_k = max(|dq_k|_inf / (scale * vmax),
+// Segment durations follow pg_sim.robot.arm_driver.ArmDriver.follow: T_k = max(|dq_k|_inf / (scale * vmax),
 // cartesian_length_k / tool_speed, min_segment_duration). Waypoint velocities: 0 at both ends; at an interior point,
 // per joint, the neighbouring secant velocity of smaller magnitude when both have the same sign, else 0 (a monotone
 // cubic, no overshoot). A cubic Hermite segment then peaks at <= 1.5 times its secant speed; every segment whose

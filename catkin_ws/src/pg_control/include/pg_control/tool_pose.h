@@ -9,7 +9,7 @@
 namespace pg_control {
 
 // Pose in `world` of a tool pointing straight down (tool z = -world z) whose x axis (the gripper's closing axis) is
-// (cos yaw, sin yaw, 0), at `position` (m). Same as pg_sim.kinematics.down_pose.
+// (cos yaw, sin yaw, 0), at `position` (m). Same as pg_sim.robot.kinematics.down_pose.
 inline Eigen::Isometry3d toolDownPose(const Eigen::Vector3d& position, double yaw) {
   const double c = std::cos(yaw);
   const double s = std::sin(yaw);

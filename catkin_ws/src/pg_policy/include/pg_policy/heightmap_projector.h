@@ -1,6 +1,6 @@
 // Top-down workspace heightmap from a coloured point cloud or an aligned RGB-D image pair (DESIGN.md sections 3, 5).
 // ROS-free core of heightmap_projector_node; must give the same heightmap as the numpy reference
-// pg_policy.heightmap.project / from_camera_cloud.
+// pg_core.heightmap.project / from_camera_cloud.
 //
 // Grid convention (VPG/ravens), all in the `world` frame, metres:
 //   col = floor((x - x_min) / resolution), row = floor((y - y_min) / resolution),
@@ -13,14 +13,15 @@
 #ifndef PG_POLICY_HEIGHTMAP_PROJECTOR_H
 #define PG_POLICY_HEIGHTMAP_PROJECTOR_H
 
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pg_core/workspace_config.h>
+
+#include <Eigen/Geometry>
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include <Eigen/Geometry>
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
 
 namespace pg_policy {
 
@@ -34,18 +35,17 @@ struct WorkspaceBounds {
   double z_max = 0.0;
 };
 
-// The part of config/workspace.yaml the projector needs: `workspace.{x,y,z}`, `heightmap.resolution`,
-// `frames.world`. Read here with yaml-cpp because the project's full C++ reader lives in pg_control, which pg_policy
-// must not link (pg_control exec_depends on pg_policy: a cycle).
+// The part of pg_description's config/workspace.yaml the projector needs: `workspace.{x,y,z}`,
+// `heightmap.resolution`, `frames.world`. The file is read (and validated) only by pg_core::WorkspaceConfig; build
+// this with fromWorkspace(pg_core::WorkspaceConfig::fromFile(path)), or fill it in directly (tests).
 struct ProjectorConfig {
   WorkspaceBounds bounds;
   double resolution = 0.0;            // m per cell
   std::string world_frame = "world";  // frame the grid is laid out in
 
-  // Throws std::runtime_error naming the file and, for a missing or malformed entry, the dotted key.
-  static ProjectorConfig fromYamlFile(const std::string& path);
-  // Same from YAML text; `source` names it in error messages.
-  static ProjectorConfig fromYamlString(const std::string& yaml_text, const std::string& source = "<string>");
+  // Copies the workspace box (m, `world`), the heightmap resolution (m per cell) and `frames.world`. Never throws
+  // beyond std::bad_alloc: a WorkspaceConfig is valid once constructed.
+  static ProjectorConfig fromWorkspace(const pg_core::WorkspaceConfig& workspace);
 };
 
 // Pinhole intrinsics (pixels, pixel-centre convention: pixel (u, v) centre at (u, v)), e.g. CameraInfo K.
@@ -106,8 +106,8 @@ class HeightmapProjector {
                      const Eigen::Isometry3d& world_from_cloud, HeightmapGrid& out);
 
   // Depth-image path: back-projects every pixel, x = (u - cx) z / fx, y = (v - cy) z / fy (double precision, as
-  // pg_sim.camera.depth_to_points), in row-major pixel order, then projects as above. `world_from_camera` maps the
-  // optical frame of the (aligned) images into `world`. Throws std::invalid_argument for bad image views.
+  // pg_sim.world.camera.depth_to_points), in row-major pixel order, then projects as above. `world_from_camera` maps
+  // the optical frame of the (aligned) images into `world`. Throws std::invalid_argument for bad image views.
   void projectDepth(const DepthImageView& depth, const ColorImageView& color, const CameraIntrinsics& intrinsics,
                     const Eigen::Isometry3d& world_from_camera, HeightmapGrid& out);
 

@@ -1,6 +1,6 @@
 """Publishes the camera extrinsics of a calibration YAML as a static transform (robot.launch).
 
-Private parameter: ~file (default: pg_policy/config/camera_calibration.yaml). A missing or malformed file ends the
+Private parameter: ~file (default: pg_description/config/camera_calibration.yaml). A missing or malformed file ends the
 node at start-up with the reason.
 """
 
@@ -13,9 +13,9 @@ import rospy
 import tf2_ros
 from geometry_msgs.msg import TransformStamped
 
-from pg_policy.calibration import CalibrationError, load_extrinsics
+from pg_policy.perception.calibration import CalibrationError, load_extrinsics
 
-DEFAULT = Path(__file__).resolve().parents[3] / "config" / "camera_calibration.yaml"
+DEFAULT = Path(__file__).resolve().parents[4] / "pg_description" / "config" / "camera_calibration.yaml"
 
 
 def main() -> None:

@@ -1,5 +1,5 @@
 """The policy loop's inputs and outputs over ROS: the latest /pg/heightmap and the controller's
-/pg/execute_primitive service (pg_policy.target_loop's HeightmapSource and PrimitiveExecutor)."""
+/pg/execute_primitive service (pg_policy.target_loop.target_loop's HeightmapSource and PrimitiveExecutor)."""
 
 from __future__ import annotations
 
@@ -12,8 +12,9 @@ from geometry_msgs.msg import PointStamped
 from pg_msgs.msg import Heightmap as HeightmapMsg
 from pg_msgs.srv import ExecutePrimitive, ExecutePrimitiveRequest
 
+from pg_conversions.heightmap_msg import heightmap_from_msg
 from pg_policy.ros import convert
-from pg_policy.target_loop import Execution, LoopError, NoHeightmap, StampedHeightmap
+from pg_policy.target_loop.target_loop import Execution, LoopError, NoHeightmap, StampedHeightmap
 
 
 class TopicHeightmapSource:
@@ -40,7 +41,7 @@ class TopicHeightmapSource:
                                       "(is the camera publishing and the heightmap projector running?)")
                 self.cond_.wait(min(left, 0.1))
             msg = self.msg_
-        return StampedHeightmap(convert.heightmap_from_msg(msg), msg.header.stamp.to_sec())
+        return StampedHeightmap(heightmap_from_msg(msg), msg.header.stamp.to_sec())
 
 
 class ServiceExecutor:

@@ -1,13 +1,14 @@
 """rospy shell of the policy (DESIGN.md section 5): /pg/heightmap in; /pg/infer and /pg/grasp_target served, and
 the action /pg/grasp_target_action (pg_msgs/GraspTargetAction: feedback per action, cancel between actions; a goal
 while a call runs is rejected "busy"); /pg/decisions, /pg/q_map and /pg/markers out. The loop itself is
-pg_policy.target_loop.TargetLoop.
+pg_policy.target_loop.target_loop.TargetLoop.
 
 Private parameters (defaults): ~policy ("lite", the shipped model; a registry name, a shipped model folder name, a
 model directory or a TorchScript file), ~grasp_threshold (from the model), ~grasp_filter (from the model; a
-pg_policy.grasp_filter spec such as "none" or "min3"), ~grasp_check (from the model; "none", "jaw", "jaw-strict" or
-"jaw-walls": pg_policy.grasp_check), ~edge_guard and ~push_landing (from the model; bool: the push guards
-pg_policy.edge_guard and pg_policy.push_landing), ~heightmap_timeout (5.0 wall s),
+pg_policy.decision.rules.grasp_filter spec such as "none" or "min3"), ~grasp_check (from the model; "none", "jaw",
+"jaw-strict" or
+"jaw-walls": pg_policy.decision.rules.grasp_check), ~edge_guard and ~push_landing (from the model; bool: the push guards
+pg_policy.decision.rules.edge_guard and pg_policy.decision.rules.push_landing), ~heightmap_timeout (5.0 wall s),
 ~primitive_timeout (60.0 s per primitive), ~max_actions (30), ~max_failed_grasps (5), ~call_timeout (600 wall s),
 ~execute_service ("/pg/execute_primitive"), ~dry_run (false: grasp_target refused; every new heightmap is decided
 on and published on /pg/dry_run/decisions).
@@ -27,16 +28,17 @@ from pg_msgs.srv import GraspTarget, GraspTargetResponse, Infer, InferResponse
 from sensor_msgs.msg import Image
 from visualization_msgs.msg import MarkerArray
 
+from pg_conversions.heightmap_msg import image_msg
 from pg_policy.ros import convert
 from pg_policy.ros.loop_io import ServiceExecutor, TopicHeightmapSource
-from pg_policy.target_loop import LoopError, LoopLimits, NoHeightmap, StampedHeightmap, TargetLoop, mask_of
+from pg_policy.target_loop.target_loop import LoopError, LoopLimits, NoHeightmap, StampedHeightmap, TargetLoop, mask_of
 
 BUSY = "busy: another grasp_target call is running"
 
 
 class PolicyNode:
     def __init__(self) -> None:
-        from pg_policy.policies import PolicyOptions, make_policy
+        from pg_policy.policies.registry import PolicyOptions, make_policy
 
         self.policy_name = str(rospy.get_param("~policy", "lite"))
         threshold = rospy.get_param("~grasp_threshold", None)
@@ -80,7 +82,7 @@ class PolicyNode:
         stamp = rospy.Time.from_sec(shm.stamp)
         header = DecisionMsg().header
         header.frame_id, header.stamp = convert.WORLD, stamp
-        self.pub_q.publish(convert.image_msg(convert.overlay(shm.heightmap, target, rec, self.loop.last_q), "rgb8",
+        self.pub_q.publish(image_msg(convert.overlay(shm.heightmap, target, rec, self.loop.last_q), "rgb8",
                                              header))
         self.pub_markers.publish(convert.markers(shm.heightmap, target, rec, stamp))
 

@@ -1,0 +1,257 @@
+"""Load the shared geometry config (config/workspace.yaml): the one place Python reads it.
+
+Every length is in metres, every angle in radians, poses are in `world` unless a field says otherwise.
+Raises FileNotFoundError for a missing file and ValueError (naming the key) for a malformed one.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import MISSING, dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+CONFIG_ENV = "PG_WORKSPACE_CONFIG"
+CATKIN_SRC = Path(__file__).resolve().parents[3]  # catkin_ws/src: robot.urdf in the config is relative to it
+DEFAULT_CONFIG = CATKIN_SRC / "pg_description" / "config" / "workspace.yaml"
+
+
+@dataclass(frozen=True)
+class Workspace:
+    x: tuple[float, float]
+    y: tuple[float, float]
+    z: tuple[float, float]
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """(3, 2) array [[xmin, xmax], [ymin, ymax], [zmin, zmax]]."""
+        return np.array([self.x, self.y, self.z], dtype=np.float64)
+
+    def contains(self, p: np.ndarray, tol: float = 1e-9) -> bool:
+        b = self.bounds
+        p = np.asarray(p, dtype=np.float64)
+        return bool(np.all(p >= b[:, 0] - tol) and np.all(p <= b[:, 1] + tol))
+
+
+@dataclass(frozen=True)
+class HeightmapSpec:
+    resolution: float
+    rotations: int
+    rows: int  # along y
+    cols: int  # along x
+
+
+@dataclass(frozen=True)
+class CameraSpec:
+    width: int
+    height: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    near: float
+    far: float
+    xyz: tuple[float, float, float]
+    rpy: tuple[float, float, float]
+
+    @property
+    def intrinsics(self) -> np.ndarray:
+        """3x3 pinhole matrix K (pixel-centre convention)."""
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    @property
+    def pose(self) -> np.ndarray:
+        """4x4 transform world <- camera_color_optical_frame."""
+        return pose_matrix(self.xyz, self.rpy)
+
+
+@dataclass(frozen=True)
+class ArmSpec:
+    name: str
+    xyz: tuple[float, float, float]
+    rpy: tuple[float, float, float]
+    home: tuple[float, ...]
+    ik_branch: tuple[int, int, int]  # (shoulder, wrist, elbow) signs of the closed-form IK branch
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    urdf: Path
+    dh_d: tuple[float, ...]
+    dh_a: tuple[float, ...]
+    dh_alpha: tuple[float, ...]
+    link_masses: tuple[float, ...]
+    joint_names: tuple[str, ...]
+    joint_lower: tuple[float, ...]
+    joint_upper: tuple[float, ...]
+    joint_velocity_limit: float
+    joint_effort_limit: tuple[float, ...]
+    arms: dict[str, ArmSpec]
+
+
+@dataclass(frozen=True)
+class GripperSpec:
+    max_opening: float
+    tcp_offset: float
+    palm_size: tuple[float, float, float]
+    finger_size: tuple[float, float, float]
+    finger_mass: float
+    palm_mass: float
+    finger_force: float
+    finger_speed: float
+    closed_threshold: float
+
+
+@dataclass(frozen=True)
+class PrimitiveSpec:
+    approach_height: float
+    transit_height: float
+    grasp_depth: float
+    grasp_min_z: float
+    lift_height: float
+    push_length: float
+    push_depth: float
+    push_min_z: float
+    push_window_px: int
+    cartesian_speed: float
+    push_speed: float
+    waypoint_step: float
+    time_budget: float
+    # Guarded grasp descent: the approach stops where the fingers meet an upward contact force above this (N) from
+    # an object or the table, as a real arm's force limit would; 0 = descend to the planned z regardless. Optional
+    # in the YAML (0 when absent).
+    grasp_stop_force: float = 0.0
+
+
+@dataclass(frozen=True)
+class TableSpec:
+    size: tuple[float, float, float]
+    center_xy: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class Geometry:
+    path: Path
+    world_frame: str
+    camera_frame: str
+    workspace: Workspace
+    heightmap: HeightmapSpec
+    camera: CameraSpec
+    table: TableSpec
+    robot: RobotSpec
+    gripper: GripperSpec
+    primitives: PrimitiveSpec
+
+
+def pose_matrix(xyz: Any, rpy: Any) -> np.ndarray:
+    """4x4 homogeneous transform from a translation and ROS fixed-axis roll-pitch-yaw."""
+    from scipy.spatial.transform import Rotation
+
+    t = np.eye(4)
+    t[:3, :3] = Rotation.from_euler("xyz", rpy).as_matrix()
+    t[:3, 3] = xyz
+    return t
+
+
+def _get(d: dict, key: str, where: str) -> Any:
+    if not isinstance(d, dict) or key not in d:
+        raise ValueError(f"geometry config: missing key '{where}{key}'")
+    return d[key]
+
+
+def _tuple(d: dict, key: str, where: str, n: int | None = None) -> tuple[float, ...]:
+    v = _get(d, key, where)
+    if not isinstance(v, list) or (n is not None and len(v) != n):
+        raise ValueError(f"geometry config: '{where}{key}' must be a list of {n or 'some'} numbers, got {v!r}")
+    return tuple(float(x) for x in v)
+
+
+def _section(raw: dict, name: str, cls: type, lists: dict[str, int | None]) -> Any:
+    sec = _get(raw, name, "")
+    kwargs = {}
+    for field, spec in cls.__dataclass_fields__.items():
+        if isinstance(sec, dict) and field not in sec and spec.default is not MISSING:
+            kwargs[field] = spec.default
+        elif field in lists:
+            kwargs[field] = _tuple(sec, field, f"{name}.", lists[field])
+        else:
+            kwargs[field] = _get(sec, field, f"{name}.")
+    return cls(**kwargs)
+
+
+def _robot(raw: dict) -> RobotSpec:
+    sec = _get(raw, "robot", "")
+    dh = _get(sec, "dh", "robot.")
+    arms = {}
+    for name, arm in _get(sec, "arms", "robot.").items():
+        w = f"robot.arms.{name}."
+        branch = tuple(int(v) for v in _tuple(arm, "ik_branch", w, 3))
+        if any(v not in (1, -1) for v in branch):
+            raise ValueError(f"geometry config: '{w}ik_branch' must hold three signs (1 or -1), got {branch}")
+        arms[name] = ArmSpec(name, _tuple(arm, "xyz", w, 3), _tuple(arm, "rpy", w, 3), _tuple(arm, "home", w, 6),
+                             branch)
+    return RobotSpec(
+        urdf=CATKIN_SRC / str(_get(sec, "urdf", "robot.")),
+        dh_d=_tuple(dh, "d", "robot.dh.", 6),
+        dh_a=_tuple(dh, "a", "robot.dh.", 6),
+        dh_alpha=_tuple(dh, "alpha", "robot.dh.", 6),
+        link_masses=_tuple(sec, "link_masses", "robot.", 6),
+        joint_names=tuple(str(n) for n in _get(sec, "joint_names", "robot.")),
+        joint_lower=_tuple(sec, "joint_lower", "robot.", 6),
+        joint_upper=_tuple(sec, "joint_upper", "robot.", 6),
+        joint_velocity_limit=float(_get(sec, "joint_velocity_limit", "robot.")),
+        joint_effort_limit=_tuple(sec, "joint_effort_limit", "robot.", 6),
+        arms=arms,
+    )
+
+
+def parse(raw: dict, path: Path) -> Geometry:
+    """Build a Geometry from the parsed YAML mapping; raises ValueError naming the bad key."""
+    ws = _section(raw, "workspace", Workspace, {"x": 2, "y": 2, "z": 2})
+    hm = _get(raw, "heightmap", "")
+    res = float(_get(hm, "resolution", "heightmap."))
+    heightmap = HeightmapSpec(
+        resolution=res,
+        rotations=int(_get(hm, "rotations", "heightmap.")),
+        rows=int(round((ws.y[1] - ws.y[0]) / res)),
+        cols=int(round((ws.x[1] - ws.x[0]) / res)),
+    )
+    frames = _get(raw, "frames", "")
+    primitives = _section(raw, "primitives", PrimitiveSpec, {})
+    if not isinstance(primitives.grasp_stop_force, int | float) or primitives.grasp_stop_force < 0:
+        raise ValueError(f"geometry config: 'primitives.grasp_stop_force' must be a force >= 0 N (0 = off), "
+                         f"got {primitives.grasp_stop_force!r}")
+    return Geometry(
+        path=path,
+        world_frame=str(_get(frames, "world", "frames.")),
+        camera_frame=str(_get(frames, "camera", "frames.")),
+        workspace=ws,
+        heightmap=heightmap,
+        camera=_section(raw, "camera", CameraSpec, {"xyz": 3, "rpy": 3}),
+        table=_section(raw, "table", TableSpec, {"size": 3, "center_xy": 2}),
+        robot=_robot(raw),
+        gripper=_section(raw, "gripper", GripperSpec, {"palm_size": 3, "finger_size": 3}),
+        primitives=primitives,
+    )
+
+
+@lru_cache(maxsize=8)
+def _load_cached(path: str) -> Geometry:
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"geometry config not found: {p}")
+    with p.open() as f:
+        raw = yaml.safe_load(f)
+    if not isinstance(raw, dict):
+        raise ValueError(f"geometry config {p} is not a YAML mapping")
+    return parse(raw, p)
+
+
+def load(path: str | Path | None = None) -> Geometry:
+    """The geometry config at `path`, else $PG_WORKSPACE_CONFIG, else the package's config/workspace.yaml."""
+    chosen = path or os.environ.get(CONFIG_ENV) or DEFAULT_CONFIG
+    return _load_cached(str(Path(chosen).resolve()))

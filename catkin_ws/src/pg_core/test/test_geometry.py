@@ -1,0 +1,45 @@
+"""Geometry config loading: clear errors for missing files and keys."""
+
+import pytest
+import yaml
+
+from pg_core import geometry
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(FileNotFoundError, match="not found"):
+        geometry.load(tmp_path / "nope.yaml")
+
+
+def test_missing_key_is_named(tmp_path):
+    raw = yaml.safe_load(geometry.DEFAULT_CONFIG.read_text())
+    del raw["primitives"]["push_length"]
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump(raw))
+    with pytest.raises(ValueError, match="primitives.push_length"):
+        geometry.load(bad)
+
+
+def test_workspace_contains():
+    ws = geometry.load().workspace
+    assert ws.contains([0, 0, 0.1]) and not ws.contains([0.3, 0, 0.1]) and not ws.contains([0, 0, -0.01])
+
+
+def _write(tmp_path, raw):
+    path = tmp_path / "ws.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    return path
+
+
+def test_grasp_stop_force_is_optional_and_off_when_absent(tmp_path):
+    raw = yaml.safe_load(geometry.DEFAULT_CONFIG.read_text())
+    del raw["primitives"]["grasp_stop_force"]
+    assert geometry.load(_write(tmp_path, raw)).primitives.grasp_stop_force == 0.0
+
+
+@pytest.mark.parametrize("bad", [-1.0, "ten"])
+def test_grasp_stop_force_must_be_a_non_negative_number(tmp_path, bad):
+    raw = yaml.safe_load(geometry.DEFAULT_CONFIG.read_text())
+    raw["primitives"]["grasp_stop_force"] = bad
+    with pytest.raises(ValueError, match="grasp_stop_force"):
+        geometry.load(_write(tmp_path, raw))

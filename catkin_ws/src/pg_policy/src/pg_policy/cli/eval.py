@@ -1,0 +1,219 @@
+"""`pushgrasp eval`: run the evaluation protocol (pg_policy.evaluation.trials) for a policy on scenes and write the
+results
+(pg_policy.evaluation.report). Heavy modules (pybullet, torch) are imported inside the handler.
+
+Errors (unknown policy, unknown scene, missing model file, a training seed) end the command with status 2 and one
+line on stderr (pg_policy.cli.main.main).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+from pg_policy.evaluation.trials import (
+    DEFAULT_JITTER_XY,
+    DEFAULT_JITTER_YAW,
+    DEFAULT_MAX_ACTIONS,
+    DEFAULT_MAX_FAILED_GRASPS,
+    DEFAULT_SEED,
+    MIN_EVAL_SEED,
+)
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    from pg_policy.decision.rules.grasp_check import NAMES as CHECKS
+
+    ev = sub.add_parser(
+        "eval", help="evaluate a policy on scenes (completion, grasp success, motion number; DESIGN.md section 8)",
+        description="Run trials of a policy and write results.json, results.md (C, GS, MN per scene) and results.png.",
+    )
+    ev.add_argument("--policy", default="lite",
+                    help="registered policy (random, heuristic, grasp-only, learned), a shipped model folder name, "
+                         "or a model directory/file (a directory with grasp.pt and push.pt runs `learned`, grasp.pt "
+                         "alone `grasp-only`) (default: lite, the shipped model)")
+    ev.add_argument("--model", nargs="+", type=Path, default=[],
+                    help="models of grasp-only/learned: a directory with grasp.pt [push.pt], or grasp.pt [push.pt]")
+    ev.add_argument("--scenes", nargs="+", required=True,
+                    help="packed, household, random-10|random-15|random-20 (any random-N), scene names "
+                         "(packed/case01) or scene YAML files")
+    ev.add_argument("--trials", type=int, required=True, help="trials per scene")
+    ev.add_argument("--seed", type=int, default=DEFAULT_SEED,
+                    help=f"trial i uses seed SEED + i (default {DEFAULT_SEED}; must be >= {MIN_EVAL_SEED}: "
+                         "training uses the seeds below)")
+    ev.add_argument("--allow-train-seeds", action="store_true", help=f"accept --seed below {MIN_EVAL_SEED}")
+    ev.add_argument("--out", type=Path, required=True, help="output directory")
+    ev.add_argument("--max-actions", type=int, default=DEFAULT_MAX_ACTIONS,
+                    help=f"action budget per trial (default {DEFAULT_MAX_ACTIONS})")
+    ev.add_argument("--max-failed-grasps", type=int, default=DEFAULT_MAX_FAILED_GRASPS,
+                    help=f"failed grasp attempts that end a trial (default {DEFAULT_MAX_FAILED_GRASPS})")
+    ev.add_argument("--jitter-xy", type=float, default=DEFAULT_JITTER_XY,
+                    help=f"fixed scenes: seeded rigid shift of the whole scene, uniform +- m (default "
+                         f"{DEFAULT_JITTER_XY}; 0 with --jitter-yaw 0 = the exact file)")
+    ev.add_argument("--jitter-yaw", type=float, default=math.degrees(DEFAULT_JITTER_YAW),
+                    help=f"fixed scenes: seeded rigid rotation of the whole scene, uniform +- deg (default "
+                         f"{math.degrees(DEFAULT_JITTER_YAW)})")
+    ev.add_argument("--grasp-threshold", type=float, default=None,
+                    help="learned: override the grasp threshold of the model metadata")
+    ev.add_argument("--push-budget", type=int, default=None,
+                    help="learned: override the model metadata's push budget (grasp after this many pushes in a "
+                         "row; 0 = none)")
+    ev.add_argument("--failed-grasp-radius", type=float, default=None, metavar="M",
+                    help="learned: a failed grasp's closing axis is not retried within M metres in the same trial "
+                         "(default: pg_policy.decision.rules.failed_grasps.DEFAULT_RADIUS_M = 0.01; 0 = off)")
+    ev.add_argument("--futile-push-radius", type=float, default=None, metavar="M",
+                    help="learned: a push that changed nothing around the target is not retried in the same "
+                         "direction within M metres in the same trial (default: "
+                         "pg_policy.decision.rules.futile_pushes.DEFAULT_RADIUS_M = 0 = off; 0.01 = 1 cm)")
+    ev.add_argument("--grasp-filter", default=None, metavar="SPEC",
+                    help="grasp-only/learned: filter Q_g before the decision (pg_policy.decision.rules.grasp_filter: "
+                         "none, sym, "
+                         "min3, mean5, sym+min3, ...) (default: the model metadata's, else none)")
+    ev.add_argument("--grasp-check", default=None, choices=CHECKS,
+                    help="learned: re-rank Q_g's best cells by the heuristic's jaw-footprint test while the target "
+                         "is visible; jaw-strict: and push (within the push budget) when none passes; jaw-walls: "
+                         "jaw-strict that also demands walls where the pads touch "
+                         "(pg_policy.decision.rules.grasp_check; default: the model metadata's, else none)")
+    ev.add_argument("--edge-guard", default=None, choices=("on", "off"),
+                    help="learned: re-rank Q_p's best cells so that the push does not carry the target out of the "
+                         "workspace (pg_policy.decision.rules.edge_guard; default: the model metadata's, else off)")
+    ev.add_argument("--push-landing", default=None, choices=("on", "off"),
+                    help="learned: re-rank Q_p's best cells so that the closed fingers do not come down on top of "
+                         "an object (pg_policy.decision.rules.push_landing; default: the model metadata's, else off)")
+    ev.add_argument("--device", default="cpu", help="torch device of learned policies (default cpu)")
+    ev.add_argument("--workers", type=int, default=1,
+                    help="parallel simulator processes (default 1); results do not depend on it")
+    ev.add_argument("--no-progress", action="store_true", help="no progress bar")
+    ev.set_defaults(run=_run)
+
+
+# -- worker processes (each holds one policy; every trial gets a fresh SimEnv) ----------------------------------
+_WORKER: dict[str, Any] = {}
+
+
+def worker_threads(workers: int, cpus: int | None = None) -> int:
+    """CPU threads for torch and OpenCV in each of `workers` processes: the machine's CPUs shared out, at least 1.
+    Without it every worker takes all CPUs and they slow each other down (seen on a 16-core GPU machine)."""
+    return max(1, (cpus or os.cpu_count() or 1) // max(1, workers))
+
+
+def _worker_init(policy: str, opts: Any, threads: int) -> None:
+    import cv2
+    import torch
+
+    from pg_policy.policies.registry import make_policy
+
+    torch.set_num_threads(threads)
+    cv2.setNumThreads(threads)
+    _WORKER["policy"] = make_policy(policy, opts)
+
+
+def _worker_trial(index: int, name: str, seed: int, plan: Any) -> tuple[int, Any]:
+    from pg_policy.environment.sim_env import SimEnv
+    from pg_policy.evaluation.trials import run_fresh
+
+    return index, run_fresh(SimEnv, _WORKER["policy"], name, seed, plan)
+
+
+def run_trials(policy: str, opts: Any, plan: Any, workers: int, on_trial: Any = None) -> list[Any]:
+    """All trials of `plan` (in plan order) with `workers` processes (1 = in this process); `on_trial(record)` is
+    called as each finishes. Every trial runs in a fresh SimEnv, so the records do not depend on `workers`."""
+    from pg_policy.evaluation.trials import run_plan
+
+    if workers <= 1:
+        from pg_policy.environment.sim_env import SimEnv
+        from pg_policy.policies.registry import make_policy
+
+        return run_plan(SimEnv, make_policy(policy, opts), plan, on_trial)
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    jobs = plan.jobs()
+    results: list[Any] = [None] * len(jobs)
+    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"), initializer=_worker_init,
+                             initargs=(policy, opts, worker_threads(workers))) as pool:
+        futures = [pool.submit(_worker_trial, i, name, seed, plan) for i, (name, seed) in enumerate(jobs)]
+        for fut in as_completed(futures):
+            i, rec = fut.result()
+            results[i] = rec
+            if on_trial is not None:
+                on_trial(rec)
+    return results
+
+
+def _run(args: argparse.Namespace) -> int:
+    from dataclasses import asdict, replace
+
+    from tqdm import tqdm
+
+    from pg_core.geometry import load as load_geometry
+    from pg_policy.evaluation.report import git_commit, write_results
+    from pg_policy.evaluation.trials import EvalPlan, Limits, check_seed, expand_scenes
+    from pg_policy.models.device import check_device
+    from pg_policy.policies.registry import PolicyOptions, make_policy
+
+    check_seed(args.seed, args.allow_train_seeds)
+    check_device(args.device)
+    if args.trials < 1:
+        raise ValueError(f"--trials must be >= 1, got {args.trials}")
+    if args.jitter_xy < 0 or args.jitter_yaw < 0:
+        raise ValueError("--jitter-xy and --jitter-yaw must be >= 0")
+    scenes = expand_scenes(args.scenes)
+    geometry = load_geometry()  # $PG_WORKSPACE_CONFIG or the package's; the simulator workers load the same file
+    opts = PolicyOptions(models=tuple(args.model), seed=args.seed, device=args.device,
+                         grasp_threshold=args.grasp_threshold, push_budget=args.push_budget,
+                         failed_grasp_radius_m=args.failed_grasp_radius,
+                         futile_push_radius_m=args.futile_push_radius, grasp_filter=args.grasp_filter,
+                         grasp_check=args.grasp_check,
+                         edge_guard=None if args.edge_guard is None else args.edge_guard == "on",
+                         push_landing=None if args.push_landing is None else args.push_landing == "on")
+    policy = make_policy(args.policy, opts)  # validates the name and the model files before any simulation
+    paths = getattr(policy, "model_paths", None)
+    if paths:  # workers and the record get the resolved files
+        opts = replace(opts, models=tuple(paths))
+    policy_name = getattr(policy, "name", args.policy)
+    grasp_filter = getattr(policy, "grasp_filter", None)  # as resolved (flag, else model metadata)
+    grasp_check = getattr(getattr(policy, "grasp_check", None), "name", "none")  # likewise
+    edge_guard = getattr(policy, "edge_guard", None) is not None  # likewise
+    push_landing = getattr(policy, "push_landing", None) is not None  # likewise
+    del policy
+    plan = EvalPlan(tuple(scenes), args.trials, args.seed, Limits(args.max_actions, args.max_failed_grasps),
+                    args.jitter_xy, math.radians(args.jitter_yaw))
+    config = {
+        "policy": policy_name, "policy_arg": args.policy, "models": [str(p) for p in opts.models],
+        "scenes": scenes, "trials": args.trials,
+        "seed": args.seed, "trial_seeds": f"seed + i for trial i = 0..{args.trials - 1}",
+        "max_actions": args.max_actions, "max_failed_grasps": args.max_failed_grasps,
+        "jitter_xy_m": args.jitter_xy, "jitter_yaw_deg": args.jitter_yaw, "grasp_threshold": args.grasp_threshold,
+        "push_budget": args.push_budget, "failed_grasp_radius_m": args.failed_grasp_radius,
+        "futile_push_radius_m": args.futile_push_radius, "grasp_check": grasp_check,
+        "edge_guard": edge_guard, "push_landing": push_landing,
+        "grasp_filter": None if grasp_filter is None else str(grasp_filter),
+        "geometry_config": str(geometry.path), "primitives": asdict(geometry.primitives),
+        "git_commit": git_commit(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "workers": args.workers,
+        "host_cpus": os.cpu_count(),
+    }
+    done: list[Any] = []
+    bar = tqdm(total=len(plan.jobs()), desc=f"eval {policy_name}", unit="trial", disable=args.no_progress)
+
+    def on_trial(rec: Any) -> None:
+        done.append(rec)
+        graspers = [t.grasp_success for t in done if t.grasp_success is not None]
+        gs = f"{100 * sum(graspers) / len(graspers):.0f}%" if graspers else "n/a"
+        bar.set_postfix_str(f"C {100 * sum(t.completed for t in done) / len(done):.0f}% GS {gs} last {rec.scene}")
+        bar.update(1)
+
+    t0 = time.perf_counter()
+    try:
+        trials = run_trials(policy_name, opts, plan, args.workers, on_trial)
+    finally:
+        bar.close()
+    config["wall_s"] = round(time.perf_counter() - t0, 1)
+    paths = write_results(args.out, trials, config)
+    print(paths["md"].read_text(encoding="utf-8").split("\n\nC: ")[0])
+    print(f"wrote {', '.join(str(p) for p in paths.values())}")
+    return 0

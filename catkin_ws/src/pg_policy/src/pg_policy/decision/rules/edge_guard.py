@@ -1,0 +1,116 @@
+"""A geometric guard on the learned push: do not carry the target towards the edge of the workspace.
+
+The workspace box (pg_core.geometry, `world` metres) bounds every commanded pose, and the heightmap covers
+exactly that box: a target pushed to within a few centimetres of its edge is partly out of view and its grasps
+are refused or clipped, and the push net (trained on scenes that rarely reach the edge) readily pushes it there;
+most failed random-scene trials of the `jaw-walls` protocol ended that way (docs/RESULTS.md).
+
+Prediction, per push candidate (rotation r: the closed fingers start at the cell centre and travel
+prims.push_length along u = (cos yaw, sin yaw), yaw = r * 2 pi / R): the push moves the target's cluster, the
+occupied cells (height > `occupied_m`) joined to the target's cells through gaps of at most `gap_cells` cells
+(objects that touch it, directly or through others: in packed scenes the push net often shoves the whole pile).
+The cluster's cells inside the finger corridor (|v offset| <= finger width / 2, 0 <= u offset <= push length) are
+met at the nearest one, and the cluster, target included, is carried the rest of the way as one rigid body
+(rotation, sliding and the pile breaking up ignored: an over-estimate for pushes into the pile's far side). A push
+is refused when the target's predicted centre ends outside the workspace shrunk by `margin_m` and farther outside
+it than now, so pushes back inwards, along the edge and pushes that miss the cluster stay allowed. Like
+pg_policy.decision.rules.grasp_check it only re-ranks: Q_p's best cells in the push region are walked in descending
+value (at
+most `top_k`), the first allowed one takes the best value and those ranked above it get -inf; when none is
+allowed Q_p is unchanged.
+A test-time deviation from the paper (docs/ARCHITECTURE.md).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from pg_core.geometry import Geometry
+from pg_core.heightmap import Heightmap, cell_centres, pixel_to_world
+from pg_policy.decision.rerank import rerank
+
+MARGIN_M = 0.03  # the predicted target centre should stay this far inside the workspace (the heuristic's edge_margin)
+OCCUPIED_M = 0.008  # cells higher than this hold an object (the heuristic's `occupied`)
+GAP_CELLS = 4  # objects this many cells (8 mm) apart or closer count as touching: the pusher closes such gaps
+TOP_K = 200  # push candidates examined per decision
+
+
+class EdgeGuard:
+    """Re-ranks Q_p so that the chosen push does not carry the target out of the shrunk workspace (module docstring).
+    `rejected` is the number of candidates ranked above the chosen one in the last apply()."""
+
+    def __init__(self, geometry: Geometry, margin_m: float = MARGIN_M, top_k: int = TOP_K,
+                 occupied_m: float = OCCUPIED_M, gap_cells: int = GAP_CELLS) -> None:
+        if margin_m < 0 or top_k < 1 or gap_cells < 0:
+            raise ValueError(f"edge guard needs margin_m >= 0, top_k >= 1 and gap_cells >= 0, got {margin_m}, "
+                             f"{top_k}, {gap_cells}")
+        ws = geometry.workspace
+        self.lo = np.array([ws.x[0], ws.y[0]]) + margin_m
+        self.hi = np.array([ws.x[1], ws.y[1]]) - margin_m
+        self.length = geometry.primitives.push_length
+        self.half_width = geometry.gripper.finger_size[1] / 2
+        self.rotations = geometry.heightmap.rotations
+        self.top_k, self.occupied, self.gap = top_k, occupied_m, gap_cells
+        self.rejected = 0
+
+    def outside(self, xy: np.ndarray) -> float:
+        """How far (m) the point `xy` lies outside the shrunk workspace (0 inside)."""
+        return float(np.linalg.norm(np.maximum(np.maximum(self.lo - xy, xy - self.hi), 0.0)))
+
+    def cluster(self, height: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """(H, W) bool: the target's cells and the occupied cells of the (H, W) `height` map (m) joined to them
+        through gaps of at most gap_cells cells (rounded up to even; 8-connected)."""
+        from scipy import ndimage
+
+        occupied = (height > self.occupied) | target
+        grow = (self.gap + 1) // 2  # both sides grow: a gap of 2 * grow cells closes
+        joined = ndimage.binary_dilation(occupied, iterations=grow) if grow else occupied
+        labels, _ = ndimage.label(joined, structure=np.ones((3, 3), bool))
+        ids = np.unique(labels[target])
+        return np.isin(labels, ids[ids > 0]) & occupied
+
+    def carried(self, c_xy: np.ndarray, start: np.ndarray, yaw: float) -> float:
+        """Distance (m) a push from `start` along `yaw` carries the rigid body whose cells are the (M, 2) `c_xy`."""
+        u = np.array([math.cos(yaw), math.sin(yaw)])
+        rel = c_xy - start
+        s, t = rel @ u, rel @ np.array([-u[1], u[0]])
+        hit = (np.abs(t) <= self.half_width) & (s >= 0.0) & (s <= self.length)
+        return float(self.length - s[hit].min()) if hit.any() else 0.0
+
+    def allows(self, t_xy: np.ndarray, start: np.ndarray, yaw: float, c_xy: np.ndarray | None = None) -> bool:
+        """Whether the push keeps the centre of the (M, 2) target cells `t_xy` inside the shrunk workspace or brings
+        it closer, the target riding on its cluster's (K, 2) cells `c_xy` (default: the target alone)."""
+        centre = t_xy.mean(axis=0)
+        carry = self.carried(t_xy if c_xy is None else c_xy, start, yaw)
+        after = centre + carry * np.array([math.cos(yaw), math.sin(yaw)])
+        out = self.outside(after)
+        return out <= 0.0 or out <= self.outside(centre) + 1e-9
+
+    def candidate_test(self, hm: Heightmap, target: np.ndarray) -> Callable[[int, int, int], bool] | None:
+        """The yes/no test of a push candidate (rotation, row, col) in `hm` for the (H, W) bool `target` mask; None
+        (every candidate allowed) when the target is empty."""
+        if not target.any():
+            return None
+        t_xy = cell_centres(*np.nonzero(target), hm.bounds, hm.resolution)
+        c_xy = cell_centres(*np.nonzero(self.cluster(hm.height, target)), hm.bounds, hm.resolution)
+
+        def allowed(r: int, row: int, col: int) -> bool:
+            start = np.array(pixel_to_world(row, col, hm.bounds, hm.resolution))
+            return self.allows(t_xy, start, r * 2 * math.pi / self.rotations, c_xy)
+
+        return allowed
+
+    def apply(self, q: np.ndarray, hm: Heightmap, region: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """(R, H, W) float64 copy of the push map `q`, re-ranked inside the (H, W) bool `region` so that its argmax is
+        the best-valued allowed push for the (H, W) bool `target` mask; `q` unchanged (as float64) when the target
+        is empty or none of the top_k is allowed."""
+        self.rejected = 0
+        allowed = self.candidate_test(hm, target)
+        if allowed is None:
+            return np.asarray(q, dtype=np.float64).copy()
+        out, rank = rerank(q, region, allowed, self.top_k)
+        self.rejected = rank or 0
+        return out

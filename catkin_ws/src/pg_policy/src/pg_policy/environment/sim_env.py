@@ -1,0 +1,123 @@
+"""The simulated environment the policy trains and is evaluated in: pg_sim's World seen through heightmaps.
+
+Everything in `world`; heightmaps follow pg_core.heightmap. Decisions are executed by the real simulated arms
+(pg_sim.world.primitives); a refused decision (outside the workspace, unreachable) moves nothing and is reported.
+pg_sim is imported lazily so that the policy core stays importable on a robot without the simulator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from pg_core.geometry import Geometry, load
+from pg_core.heightmap import Heightmap
+
+
+@dataclass(frozen=True)
+class EnvObservation:
+    """heightmap: what the camera sees; target: colour name of the goal; truth_target: (H, W) bool ground-truth
+    cells of the goal object (simulation only: for relabelling, evaluation and tests, never as policy input)."""
+
+    heightmap: Heightmap
+    target: str
+    truth_target: np.ndarray
+    sim_time: float
+
+
+@dataclass(frozen=True)
+class StepResult:
+    primitive: str
+    executed: bool  # the motion ran to completion (False when refused or timed out)
+    refused: bool  # the request was refused before anything moved
+    grasped: bool  # fingers not closed after lifting (grasps only)
+    target_grasped: bool
+    grasped_color: str | None  # palette name of the object grasped (ground truth), None if none
+    message: str
+    sim_time: float  # simulated seconds the primitive took
+
+
+class SimEnv:
+    """One simulated cell. Not thread-safe; use one per process. Call close() or use `with`."""
+
+    def __init__(self, geometry: Geometry | None = None, gui: bool = False) -> None:
+        from pg_sim.world.primitives import PrimitiveExecutor
+        from pg_sim.world.world import World
+
+        self.geometry = geometry or load()
+        self.world = World(self.geometry, gui=gui)
+        self.executor = PrimitiveExecutor(self.world, remove_grasped=True)
+        self.target = "green"
+
+    def close(self) -> None:
+        self.world.close()
+
+    def __enter__(self) -> SimEnv:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def reset(self, scene: Any, seed: int = 0) -> EnvObservation:
+        """Load a scene: a SceneSpec, a shipped name/YAML path, "random-N" (N objects dropped from `seed` over
+        +-0.11 m) or "dense-N" (N objects dropped over +-0.05 m: packed clutter for training pushes)."""
+        from pg_sim.scenes.random_scene import drop_scene, sample_drops
+        from pg_sim.scenes.scene import SceneSpec, find_scene, load_scene
+        from pg_sim.scenes.scene_source import RANDOM
+
+        if isinstance(scene, SceneSpec):
+            self.world.load_scene(scene)
+        elif m := RANDOM.match(str(scene)):
+            drop_scene(self.world, sample_drops(int(m.group(1)), seed))
+        elif str(scene).startswith("dense-") and str(scene)[6:].isdigit():
+            drop_scene(self.world, sample_drops(int(str(scene)[6:]), seed, half_extent=0.05))
+        else:
+            self.world.load_scene(load_scene(find_scene(str(scene))))
+        self.target = self.world.scene.target if self.world.scene else "green"
+        return self.observe()
+
+    def observe(self) -> EnvObservation:
+        obs = self.world.observe()
+        labels = self.world.label_heightmap(obs.frame)
+        tid = self.world.target_id
+        truth = labels == tid if tid is not None else np.zeros(labels.shape, dtype=bool)
+        return EnvObservation(obs.heightmap, self.target, truth, obs.sim_time)
+
+    def retarget(self, color_name: str) -> bool:
+        """Make the object of `color_name` the goal (relabelling); False if no single object has that colour."""
+        from pg_sim.scenes.colors import nearest_color_name
+
+        hits = [b for b, spec in self.world.objects.items() if nearest_color_name(spec.color) == color_name]
+        if len(hits) != 1:
+            return False
+        self.world.target_id = hits[0]
+        self.target = color_name
+        return True
+
+    def object_colors(self) -> list[str]:
+        """Palette names of the objects present (ground truth)."""
+        from pg_sim.scenes.colors import nearest_color_name
+
+        return [nearest_color_name(spec.color) for spec in self.world.objects.values()]
+
+    def target_present(self) -> bool:
+        return self.world.target_id is not None
+
+    def step(self, primitive: str, x: float, y: float, z: float, yaw: float) -> StepResult:
+        """Execute one primitive at TCP (x, y, z) m, yaw rad in `world`."""
+        from pg_sim.scenes.colors import nearest_color_name
+        from pg_sim.world.primitives import PrimitiveRefused
+
+        action = {"grasp": self.executor.grasp, "push": self.executor.push}
+        if primitive not in action:
+            raise ValueError(f"unknown primitive '{primitive}' (grasp, push)")
+        specs = dict(self.world.objects)
+        try:
+            res = action[primitive](x, y, z, yaw)
+        except PrimitiveRefused as exc:
+            return StepResult(primitive, False, True, False, False, None, str(exc), 0.0)
+        color = nearest_color_name(specs[res.grasped_object].color) if res.grasped_object is not None else None
+        return StepResult(primitive, res.executed, False, res.grasped, res.target_grasped, color, res.message,
+                          res.sim_time)

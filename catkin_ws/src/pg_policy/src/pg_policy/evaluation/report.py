@@ -1,0 +1,119 @@
+"""What `pushgrasp eval` writes: results.json (config, every trial, per-scene metrics), results.md (a table laid out
+as the paper's Tables I-III: one row per scene, columns C, GS, MN as mean +- standard error) and results.png (bars of
+C and GS per scene with standard-error whiskers). C and GS are shown in percent, MN in pushes.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from pg_policy.evaluation.trials import Stat, TrialRecord, _plain, summarize
+
+METRIC_DOC = (
+    "C: completed trials / trials. GS: target grasps / grasp attempts per trial, averaged over the trials with at "
+    "least one grasp attempt. MN: pushes per completed trial. Each mean ± standard error over trials "
+    "(sample standard deviation / sqrt(n); n/a for fewer than 2 values). See pg_policy.evaluation.trials."
+)
+
+
+def git_commit(start: Path | None = None) -> str | None:
+    """HEAD commit of the repository holding this file (with "-dirty" if the tree has changes), None if unknown."""
+    cwd = start or Path(__file__).resolve().parent
+    try:
+        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=cwd, capture_output=True, text=True, timeout=5)
+        if head.returncode != 0:
+            return None
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=cwd,
+                               capture_output=True, text=True, timeout=5)
+        return head.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "")
+    except (OSError, subprocess.SubprocessError):
+        return None
+
+
+def fmt(stat: Stat, scale: float = 1.0, digits: int = 1) -> str:
+    """'mean ± se' with the given scale and decimals; 'n/a' for no values, 'mean ± n/a' for a single value."""
+    if stat.mean is None:
+        return "n/a"
+    se = "n/a" if stat.se is None else f"{stat.se * scale:.{digits}f}"
+    return f"{stat.mean * scale:.{digits}f} ± {se}"
+
+
+def markdown(summary: dict[str, dict[str, Stat]], config: dict[str, Any], trials: Sequence[TrialRecord]) -> str:
+    """The results.md text: title, the C / GS / MN table, the definitions, and a table of secondary figures."""
+    seed, trials_n = int(config.get("seed", 0)), int(config.get("trials", 1))
+    lines = [
+        f"# Evaluation: policy `{config.get('policy')}`",
+        "",
+        f"{trials_n} trials per scene, seeds {seed}..{seed + trials_n - 1} (trial i: seed + i), "
+        f"at most {config.get('max_actions')} actions and {config.get('max_failed_grasps')} failed grasps per trial.",
+        "",
+        "| Scene | C (%) | GS (%) | MN |",
+        "|---|---|---|---|",
+    ]
+    for name, m in summary.items():
+        label = f"**{name}**" if name == "all" else name
+        lines.append(f"| {label} | {fmt(m['C'], 100)} | {fmt(m['GS'], 100)} | {fmt(m['MN'], 1, 2)} |")
+    lines += ["", METRIC_DOC, "", "Secondary figures:", "",
+              "| Scene | trials | completed | GS per completion (%) | actions per completed trial | refused per trial "
+              "| ended by failed grasps / action budget |",
+              "|---|---|---|---|---|---|---|"]
+    for name, m in summary.items():
+        ts = [t for t in trials if name == "all" or t.scene == name]
+        n_done = sum(t.completed for t in ts)
+        fg = sum(t.termination == "failed_grasps" for t in ts)
+        ma = sum(t.termination == "max_actions" for t in ts)
+        lines.append(f"| {name} | {len(ts)} | {n_done} | {fmt(m['gs_completed'], 100)} | "
+                     f"{fmt(m['actions_completed'], 1, 2)} | {fmt(m['refused'], 1, 2)} | {fg} / {ma} |")
+    lines += ["", "GS per completion and actions per completed trial are how Xu et al.'s evaluate.py counts "
+              "\"grasp success\" and \"motion number\".", ""]
+    return "\n".join(lines)
+
+
+def plot(summary: dict[str, dict[str, Stat]], path: Path, title: str) -> Path:
+    """Grouped bars of C and GS (percent) per scene with standard-error whiskers, written to `path`."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    names = list(summary)
+    x = np.arange(len(names))
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.0 + 0.9 * len(names)), 4.5), dpi=100)
+    for i, (key, colour) in enumerate((("C", "tab:blue"), ("GS", "tab:orange"))):
+        means = [100 * (summary[n][key].mean or 0.0) for n in names]
+        errs = [100 * (summary[n][key].se or 0.0) for n in names]
+        ax.bar(x + (i - 0.5) * 0.38, means, 0.38, yerr=errs, capsize=3, label=key, color=colour)
+    ax.set_xticks(x)
+    ax.set_xticklabels(names, rotation=30, ha="right")
+    ax.set_ylim(0, 105)
+    ax.set_ylabel("%")
+    ax.set_title(title)
+    ax.legend()
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def write_results(out: Path, trials: Sequence[TrialRecord], config: dict[str, Any]) -> dict[str, Path]:
+    """Write results.json, results.md and results.png into `out` (created); returns their paths by kind."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = summarize(trials)
+    paths = {"json": out / "results.json", "md": out / "results.md", "png": out / "results.png"}
+    doc = {
+        "config": _plain(config),
+        "metrics_definition": METRIC_DOC,
+        "summary": {name: {k: _plain(s) for k, s in m.items()} for name, m in summary.items()},
+        "trials": [_plain(t.to_dict()) for t in trials],
+    }
+    paths["json"].write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n", encoding="utf-8")
+    paths["md"].write_text(markdown(summary, config, trials), encoding="utf-8")
+    plot(summary, paths["png"], f"{config.get('policy')}: completion and grasp success (mean ± SE)")
+    return paths

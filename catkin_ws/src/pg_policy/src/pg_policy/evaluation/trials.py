@@ -1,0 +1,334 @@
+"""The evaluation protocol of DESIGN.md section 8: trials, their records, and the per-scene metrics C, GS and MN.
+
+A trial: reset the scene (seeded), then ask the policy for one decision at a time and execute it, until
+  - the target is grasped (the trial is *completed*),
+  - ``max_failed_grasps`` (5) grasp attempts have failed, or
+  - ``max_actions`` (30) actions have been taken.
+Every decision the policy returns counts as an action, refused ones included (they are logged with the refusal
+message). An executed grasp is a *grasp attempt*; it *fails* unless the target is the object held after lifting (a
+wrong object held also fails, and the simulator removes that object). An executed push is a *push*. A refused
+decision is neither an attempt nor a push: it moved nothing, but it spends one action of the budget.
+
+Per-trial quantities and the per-scene metrics (each reported as mean +- standard error over trials):
+  - C  (completion): c_i = 1 if trial i completed else 0, averaged over all trials of the scene.
+  - GS (grasp success): g_i = target grasps_i / grasp attempts_i (0 or 1/attempts, since a trial stops at its first
+    target grasp), averaged over the trials with at least one grasp attempt (undefined when there are none).
+  - MN (motion number): m_i = pushes_i, averaged over the COMPLETED trials only (undefined when none completed).
+Secondary figures kept in the records: ``gs_completed`` (g_i averaged over completed trials only: the "grasp success
+per clearance" of Xu et al.'s evaluate.py), ``actions_completed`` (all actions per completed trial: the "motion
+number" as Xu et al.'s evaluate.py counts it), ``refused`` (refused actions per trial).
+Standard error of n values v_1..v_n with mean m: se = sqrt(sum_i (v_i - m)^2 / (n - 1)) / sqrt(n) (sample standard
+deviation over sqrt(n)); undefined (None) for n < 2.
+
+Seeds: trial i (0-based) of every scene uses seed ``seed + i``: it seeds the random scene (``random-N``), the pose
+jitter of fixed scenes, and the policy's own randomness (``policy.reset(seed)``), so a run is reproducible from
+``seed`` alone (every trial runs in a fresh simulator, see ``run_plan``). Evaluation seeds must be disjoint from
+training seeds: training uses seeds below ``MIN_EVAL_SEED``.
+
+Fixed scenes (packed, household, files) are deterministic in PyBullet, so repeated trials of a deterministic policy
+would be copies of each other. Each trial therefore places the whole scene with a small seeded rigid motion
+(``jitter_xy`` m uniform translation, ``jitter_yaw`` rad uniform rotation about the scene's centroid; the objects'
+relative poses, i.e. the test case itself, are unchanged). ``jitter_xy = jitter_yaw = 0`` evaluates the exact file.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass, field, is_dataclass, replace
+from typing import Any, Protocol
+
+import numpy as np
+
+MIN_EVAL_SEED = 1_000_000
+DEFAULT_SEED = MIN_EVAL_SEED
+DEFAULT_MAX_ACTIONS = 30
+DEFAULT_MAX_FAILED_GRASPS = 5
+DEFAULT_JITTER_XY = 0.01  # m
+DEFAULT_JITTER_YAW = math.radians(11.25)  # half of one of the 16 rotation steps
+FAMILIES = ("packed", "household")
+
+
+class EvalEnv(Protocol):
+    """What a trial needs of an environment (pg_policy.environment.sim_env.SimEnv satisfies it)."""
+
+    def reset(self, scene: Any, seed: int = 0) -> Any: ...
+
+    def step(self, primitive: str, x: float, y: float, z: float, yaw: float) -> Any: ...
+
+    def observe(self) -> Any: ...
+
+
+class EvalPolicy(Protocol):
+    name: str
+
+    def reset(self, seed: int | None = None) -> None: ...
+
+    def act(self, obs: Any) -> Any: ...
+
+
+@dataclass(frozen=True)
+class Limits:
+    """When a trial stops besides completion: action budget and failed grasp attempts."""
+
+    max_actions: int = DEFAULT_MAX_ACTIONS
+    max_failed_grasps: int = DEFAULT_MAX_FAILED_GRASPS
+
+    def __post_init__(self) -> None:
+        if self.max_actions < 1 or self.max_failed_grasps < 1:
+            raise ValueError(f"limits must be >= 1, got max_actions {self.max_actions}, "
+                             f"max_failed_grasps {self.max_failed_grasps}")
+
+
+@dataclass
+class TrialRecord:
+    """One trial: scene name, seed, counts, why it ended, and every action (decision + outcome) in order."""
+
+    scene: str
+    seed: int
+    completed: bool = False
+    termination: str = ""  # "completed" | "failed_grasps" | "max_actions"
+    grasps: int = 0  # executed grasp attempts
+    target_grasps: int = 0
+    failed_grasps: int = 0
+    pushes: int = 0  # executed pushes
+    refused: int = 0
+    actions: list[dict[str, Any]] = field(default_factory=list)
+    wall_s: float = 0.0
+    sim_s: float = 0.0
+
+    @property
+    def n_actions(self) -> int:
+        return len(self.actions)
+
+    @property
+    def grasp_success(self) -> float | None:
+        """target grasps / grasp attempts of this trial, None without attempts."""
+        return self.target_grasps / self.grasps if self.grasps else None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {**asdict(self), "n_actions": self.n_actions, "grasp_success": self.grasp_success}
+
+
+@dataclass(frozen=True)
+class Stat:
+    """Mean and standard error of n per-trial values (mean None for n = 0, se None for n < 2)."""
+
+    mean: float | None
+    se: float | None
+    n: int
+
+
+def mean_se(values: Iterable[float]) -> Stat:
+    """Mean and standard error sqrt(sum (v - mean)^2 / (n - 1)) / sqrt(n) of the values (see module docstring)."""
+    v = np.asarray(list(values), dtype=np.float64)
+    n = int(v.size)
+    if n == 0:
+        return Stat(None, None, 0)
+    mean = float(v.mean())
+    se = float(v.std(ddof=1) / math.sqrt(n)) if n > 1 else None
+    return Stat(mean, se, n)
+
+
+def scene_metrics(trials: Sequence[TrialRecord]) -> dict[str, Stat]:
+    """C, GS, MN (and the secondary figures) over the given trials, per the definitions of the module docstring."""
+    done = [t for t in trials if t.completed]
+    return {
+        "C": mean_se(1.0 if t.completed else 0.0 for t in trials),
+        "GS": mean_se(t.grasp_success for t in trials if t.grasp_success is not None),
+        "MN": mean_se(t.pushes for t in done),
+        "gs_completed": mean_se(t.grasp_success for t in done if t.grasp_success is not None),
+        "actions_completed": mean_se(t.n_actions for t in done),
+        "refused": mean_se(t.refused for t in trials),
+    }
+
+
+def _plain(obj: Any) -> Any:
+    """JSON-friendly copy: dataclasses -> dicts, numpy scalars/arrays -> Python numbers/lists, NaN -> None."""
+    if is_dataclass(obj) and not isinstance(obj, type):
+        return {k: _plain(v) for k, v in asdict(obj).items()}
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _plain(obj.tolist())
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: Limits | None = None,
+              scene_name: str | None = None) -> TrialRecord:
+    """Run one trial of the protocol (module docstring) and return its record.
+
+    `scene` goes to env.reset(scene, seed) unchanged (a name, a YAML path, "random-N" or a SceneSpec); `scene_name`
+    labels the record (default str(scene)). Exceptions of the env or the policy propagate.
+    """
+    limits = limits or Limits()
+    t0 = time.perf_counter()
+    policy.reset(seed)
+    obs = env.reset(scene, seed)
+    rec = TrialRecord(scene=scene_name or str(scene), seed=seed)
+    while True:
+        if rec.target_grasps:
+            rec.completed, rec.termination = True, "completed"
+            break
+        if rec.failed_grasps >= limits.max_failed_grasps:
+            rec.termination = "failed_grasps"
+            break
+        if rec.n_actions >= limits.max_actions:
+            rec.termination = "max_actions"
+            break
+        t_act = time.perf_counter()
+        decision = policy.act(obs)
+        think_s = time.perf_counter() - t_act
+        result = env.step(decision.primitive, float(decision.x), float(decision.y), float(decision.z),
+                          float(decision.yaw))
+        if result.refused:
+            rec.refused += 1
+        elif result.primitive == "grasp":
+            rec.grasps += 1
+            if result.target_grasped:
+                rec.target_grasps += 1
+            else:
+                rec.failed_grasps += 1
+        else:
+            rec.pushes += 1
+        rec.sim_s += float(result.sim_time)
+        rec.actions.append({"index": rec.n_actions, "decision": _plain(decision), "outcome": _plain(result),
+                            "think_s": round(think_s, 4), "note": str(getattr(policy, "last_note", ""))})
+        obs = env.observe()
+    rec.wall_s = time.perf_counter() - t0
+    return rec
+
+
+def check_seed(seed: int, allow_train_seeds: bool = False) -> None:
+    """Raise ValueError when `seed` may collide with training seeds (< MIN_EVAL_SEED) unless explicitly allowed."""
+    if seed < 0:
+        raise ValueError(f"seed must be >= 0, got {seed}")
+    if seed < MIN_EVAL_SEED and not allow_train_seeds:
+        raise ValueError(f"evaluation seed {seed} is below {MIN_EVAL_SEED:,}: training uses seeds below that, so the "
+                         f"evaluation scenes could be training scenes; use --seed >= {MIN_EVAL_SEED} "
+                         "(or --allow-train-seeds to override)")
+
+
+def expand_scenes(items: Sequence[str]) -> list[str]:
+    """Scene arguments -> scene names/paths: "packed" and "household" expand to their shipped scenes, "random-N"
+    and "dense-N" (generated from the trial seed) stay, anything else must be a shipped scene name or a YAML file.
+    Raises SceneError (ValueError) for an unknown one (with close matches) and ValueError for an empty family or
+    list."""
+    from pg_sim.scenes.scene import find_scene, list_scenes
+    from pg_sim.scenes.scene_source import GENERATED
+
+    out: list[str] = []
+    for item in items:
+        if item in FAMILIES:
+            names = [n for n in list_scenes() if n.startswith(f"{item}/")]
+            if not names:
+                raise ValueError(f"scene family {item!r} has no scenes in the scene folders")
+            out += names
+        elif GENERATED.match(item):
+            if int(GENERATED.match(item).group(2)) < 1:  # type: ignore[union-attr]
+                raise ValueError(f"{item}: a generated scene needs at least one object")
+            out.append(item)
+        else:
+            find_scene(item)
+            out.append(item)
+    if not out:
+        raise ValueError("no scenes given")
+    return out
+
+
+def jitter_scene(scene: Any, rng: np.random.Generator, xy: float, yaw: float) -> Any:
+    """`scene` (a SceneSpec) moved rigidly: rotated by U(-yaw, yaw) rad about its objects' mean (x, y), then shifted
+    by U(-xy, xy) m in x and y. Relative object poses are kept; returns the scene unchanged when both are 0."""
+    if xy <= 0 and yaw <= 0:
+        return scene
+    from scipy.spatial.transform import Rotation
+
+    theta = float(rng.uniform(-yaw, yaw)) if yaw > 0 else 0.0
+    shift = rng.uniform(-xy, xy, 2) if xy > 0 else np.zeros(2)
+    centre = np.mean([o.pose[:2] for o in scene.objects], axis=0)
+    rz = Rotation.from_euler("z", theta)
+    c, s = math.cos(theta), math.sin(theta)
+    objects = []
+    for o in scene.objects:
+        p = np.asarray(o.pose[:2]) - centre
+        x = centre[0] + c * p[0] - s * p[1] + shift[0]
+        y = centre[1] + s * p[0] + c * p[1] + shift[1]
+        rpy = (rz * Rotation.from_euler("xyz", o.pose[3:])).as_euler("xyz")
+        objects.append(replace(o, pose=(float(x), float(y), float(o.pose[2]), *(float(a) for a in rpy))))
+    return replace(scene, objects=tuple(objects))
+
+
+def trial_scene(name: str, seed: int, jitter_xy: float, jitter_yaw: float) -> Any:
+    """What env.reset gets for trial `seed` of scene `name`: "random-N" / "dense-N" unchanged, else the loaded and
+    jittered SceneSpec (jitter drawn from `seed`)."""
+    from pg_sim.scenes.scene import load_scene
+    from pg_sim.scenes.scene_source import GENERATED
+
+    if GENERATED.match(name):
+        return name
+    return jitter_scene(load_scene(name), np.random.default_rng(seed), jitter_xy, jitter_yaw)
+
+
+@dataclass(frozen=True)
+class EvalPlan:
+    """The trials to run: scenes x trials, seeds seed + i, limits, pose jitter of fixed scenes."""
+
+    scenes: tuple[str, ...]
+    trials: int
+    seed: int = DEFAULT_SEED
+    limits: Limits = field(default_factory=Limits)
+    jitter_xy: float = DEFAULT_JITTER_XY
+    jitter_yaw: float = DEFAULT_JITTER_YAW
+
+    def jobs(self) -> list[tuple[str, int]]:
+        """(scene, seed) of every trial, scene-major."""
+        if self.trials < 1:
+            raise ValueError(f"--trials must be >= 1, got {self.trials}")
+        return [(s, self.seed + i) for s in self.scenes for i in range(self.trials)]
+
+
+def run_plan(make_env: Callable[[], EvalEnv], policy: EvalPolicy, plan: EvalPlan,
+             on_trial: Callable[[TrialRecord], None] | None = None) -> list[TrialRecord]:
+    """Run every trial of `plan` in order; `on_trial` is called after each trial.
+
+    Each trial gets a fresh environment from `make_env()` (closed afterwards when it has close()): PyBullet's
+    contact solver keeps state between calls, so a world that ran other trials before would not reproduce a trial
+    exactly. With a fresh world per trial, a trial's record depends only on (policy, scene, seed, limits, jitter).
+    """
+    out = []
+    for name, seed in plan.jobs():
+        out.append(run_fresh(make_env, policy, name, seed, plan))
+        if on_trial is not None:
+            on_trial(out[-1])
+    return out
+
+
+def run_fresh(make_env: Callable[[], EvalEnv], policy: EvalPolicy, name: str, seed: int,
+              plan: EvalPlan) -> TrialRecord:
+    """One trial of `plan` (scene `name`, `seed`) in a fresh environment from `make_env()`."""
+    scene = trial_scene(name, seed, plan.jitter_xy, plan.jitter_yaw)
+    env = make_env()
+    try:
+        return run_trial(env, policy, scene, seed, plan.limits, scene_name=name)
+    finally:
+        close = getattr(env, "close", None)
+        if close is not None:
+            close()
+
+
+def summarize(trials: Sequence[TrialRecord]) -> dict[str, dict[str, Stat]]:
+    """Per-scene metrics in first-seen scene order, plus "all" over every trial when there are several scenes."""
+    scenes: dict[str, list[TrialRecord]] = {}
+    for t in trials:
+        scenes.setdefault(t.scene, []).append(t)
+    out = {name: scene_metrics(ts) for name, ts in scenes.items()}
+    if len(scenes) > 1:
+        out["all"] = scene_metrics(trials)
+    return out

@@ -1,6 +1,0 @@
-"""Push/grasp Q networks: DenseNet-121 and lite trunks, the two-stream rotated QNet, the backbone registry."""
-
-from pg_policy.nets.qnet import QNet, QNetConfig, build_qnet, canvas_size
-from pg_policy.nets.registry import BACKBONES, get_backbone
-
-__all__ = ["BACKBONES", "QNet", "QNetConfig", "build_qnet", "canvas_size", "get_backbone"]

@@ -1,0 +1,402 @@
+"""A hand-written geometric push/grasp rule: the baseline the learned policy has to beat.
+
+Everything is computed on the heightmap (pg_core.heightmap: rows along y, columns along x, heights in metres
+above the table) in `world` metres. Rotation index r means yaw = r * 2 pi / R (R = 16); a grasp at yaw closes the
+fingers along u = (cos yaw, sin yaw), a push travels 0.13 m along u (DESIGN.md sections 3 and 4).
+
+The rule, for a visible target:
+0. If another object lies on the target (its cells inside the target's convex hull are higher than the target),
+   grasp that object away first.
+1. Grasp if some rotation is *free*: with the fingers open (max_opening between the pads) and centred on the
+   target's extent along u, the region each finger occupies and sweeps while closing (finger width along v plus a
+   margin, from the target's edge to the finger's outer face plus a margin) holds no cell of another object higher
+   than the grasp height minus a tolerance, the target fits between the pads, and the target is (nearly) as wide in
+   the central strip of the pads as anywhere between them (else the pads touch it off-centre and it squirts out:
+   round or wedge-shaped targets are grasped through their widest part). Among free grasps (8 closing axes x grasp
+   lines shifted by OFFSETS across them) the score favours clearance (distance from those regions to the nearest
+   obstacle) up to `enough_clearance`, then a narrow width between the pads (pads parallel to the short faces, not
+   across a long or tilted side), then a central grasp line.
+2. Otherwise push the target out of the clutter: for each of the 16 directions d, the closed fingers start behind
+   the target on the line through its centre (backing off until the start is free, else the direction is dropped),
+   and the target is predicted to travel 0.13 m minus the free gap. A direction scores by whether a grasp across
+   the push (fingers along the perpendicular of d, objects in the push corridor assumed to be carried along) would
+   be free afterwards and by its clearance, the free run ahead of the target, a short back-off, and keeping the
+   target inside the workspace.
+3. After `declutter_after` pushes in a row without a free grasp (pushes that drag the blocking neighbour along,
+   e.g. a target nested in an arch), grasp away the neighbour whose removal frees a grasp of the target (this costs
+   one failed grasp attempt).
+4. Target not visible: grasp (goal-agnostically) the most graspable object, preferring objects near where the target
+   was last seen and high ones (something on top of the target), to uncover it.
+Grasps that already failed at the same place and rotation are not repeated within a trial.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pg_core.action_geometry import grasp_z, push_z
+from pg_core.geometry import Geometry
+from pg_core.heightmap import Heightmap, world_to_pixel
+
+OFFSETS = (0.0, -0.006, 0.006, -0.012, 0.012, -0.018, 0.018, -0.024, 0.024, -0.03, 0.03)  # grasp line shifts (m)
+
+
+@dataclass(frozen=True)
+class HeuristicParams:
+    """Tunables (metres unless stated)."""
+
+    margin: float = 0.003  # free space demanded around the finger regions
+    obstacle_tol: float = 0.004  # a neighbour blocks when higher than grasp z - tol
+    occupied: float = 0.008  # cells higher than this hold an object
+    window: float = 0.10  # half-size of the region around the target that is examined
+    push_gap: float = 0.004  # first gap tried between the closed fingers and the target
+    max_backoff: float = 0.10  # farthest start tried behind the target (over neighbours: they are pushed too)
+    edge_margin: float = 0.03  # predicted target centre must stay this far inside the workspace
+    min_band_cells: int = 10  # target cells needed between the finger pads for a grasp
+    centre_line: float = 0.006  # half-width of the central strip of the pads
+    chord_tol: float = 0.004  # the target may be this much narrower in the central strip than between the pads
+    enough_clearance: float = 0.01  # more clearance than this does not make a grasp better
+    width_weight: float = 0.5  # score per metre of target width between the pads (narrow grasps are stabler)
+    repeat_radius: float = 0.008  # a failed grasp closer than this (same rotation) is not repeated
+    min_target_cells: int = 25  # fewer visible target cells: treated as not visible
+    on_top: float = 0.01  # another object's cells this much above the target's top inside its hull lie on it
+    declutter_after: int = 4  # pushes in a row after which a blocking neighbour is grasped away
+
+
+@dataclass(frozen=True)
+class Action:
+    """A chosen primitive at heightmap cell (row, col) and rotation index; score is rule-internal; why: a note."""
+
+    primitive: str
+    rotation: int
+    row: int
+    col: int
+    score: float
+    why: str
+
+
+class _Cells:
+    """World (x, y) of the cells of a heightmap window and their heights."""
+
+    def __init__(self, hm: Heightmap, centre: np.ndarray | None, half: float) -> None:
+        res, b = hm.resolution, hm.bounds
+        rows, cols = hm.height.shape
+        if centre is None:
+            r0, r1, c0, c1 = 0, rows, 0, cols
+        else:
+            rc, cc = world_to_pixel(float(centre[0]), float(centre[1]), b, res)
+            k = int(math.ceil(half / res))
+            r0, r1, c0, c1 = max(rc - k, 0), min(rc + k + 1, rows), max(cc - k, 0), min(cc + k + 1, cols)
+        rr, cc_ = np.mgrid[r0:r1, c0:c1]
+        self.slice = (slice(r0, r1), slice(c0, c1))
+        self.xy = np.stack([b[0, 0] + (cc_ + 0.5) * res, b[1, 0] + (rr + 0.5) * res], axis=-1).reshape(-1, 2)
+        self.h = hm.height[self.slice].reshape(-1)
+
+
+def _dilate(mask: np.ndarray, cells: int) -> np.ndarray:
+    import cv2
+
+    if cells <= 0:
+        return mask
+    k = np.ones((2 * cells + 1, 2 * cells + 1), np.uint8)
+    return cv2.dilate(mask.astype(np.uint8), k).astype(bool)
+
+
+class HeuristicPlanner:
+    """The rule of the module docstring for one geometry; stateless apart from what `plan` is given."""
+
+    def __init__(self, geometry: Geometry, params: HeuristicParams | None = None) -> None:
+        self.g = geometry
+        self.p = params or HeuristicParams()
+        self.rotations = geometry.heightmap.rotations
+        gr = geometry.gripper
+        self.half_open = gr.max_opening / 2
+        self.finger_t, self.finger_w = gr.finger_size[0], gr.finger_size[1]
+
+    # -- helpers -----------------------------------------------------------------------------------------------
+    def yaw(self, r: int) -> float:
+        return r * 2 * math.pi / self.rotations
+
+    def _pixel(self, hm: Heightmap, xy: np.ndarray) -> tuple[int, int] | None:
+        r, c = world_to_pixel(float(xy[0]), float(xy[1]), hm.bounds, hm.resolution)
+        if 0 <= r < hm.height.shape[0] and 0 <= c < hm.height.shape[1]:
+            return r, c
+        return None
+
+    def _inside(self, xy: np.ndarray, margin: float) -> bool:
+        ws = self.g.workspace
+        return ws.x[0] + margin <= xy[0] <= ws.x[1] - margin and ws.y[0] + margin <= xy[1] <= ws.y[1] - margin
+
+    # -- grasp ---------------------------------------------------------------------------------------------------
+    def grasp_fit(self, t_xy: np.ndarray, o_xy: np.ndarray, o_h: np.ndarray, centre: np.ndarray, yaw: float,
+                  z_grasp: float) -> tuple[float, np.ndarray, float] | None:
+        """Clearance (m, >= 0 means free), the pad-centred grasp point and the target's width between the pads (m) of
+        a grasp at `yaw` through `centre`.
+
+        t_xy: (M, 2) target cells; o_xy, o_h: (K, 2) cells of other objects and their heights. None when the target
+        does not fit between the pads or too few target cells lie between them.
+        """
+        p = self.p
+        u = np.array([math.cos(yaw), math.sin(yaw)])
+        v = np.array([-u[1], u[0]])
+        rel = t_xy - centre
+        t = rel @ v
+        band = np.abs(t) <= self.finger_w / 2 + p.margin
+        if int(band.sum()) < p.min_band_cells or t[band].min() > -p.centre_line or t[band].max() < p.centre_line:
+            return None  # the central strip of the pads is not all on the target
+        s = rel[band] @ u
+        lo, hi = float(s.min()), float(s.max())
+        if hi - lo > 2 * (self.half_open - p.margin):
+            return None
+        centre_line = np.abs(t) <= p.centre_line
+        if not centre_line.any():
+            return None
+        sc = rel[centre_line] @ u
+        if float(sc.max() - sc.min()) < (hi - lo) - p.chord_tol:
+            return None  # the pads would first touch the target off the closing line: it squirts out (round, wedge)
+        c2 = centre + 0.5 * (lo + hi) * u
+        reach = self.half_open + self.finger_t + p.margin  # outer face of an open finger + margin
+        block = o_h > z_grasp - p.obstacle_tol
+        if not block.any():
+            return 1.0, c2, hi - lo
+        orel = o_xy[block] - c2
+        ds = np.maximum(np.abs(orel @ u) - reach, 0.0)
+        dt = np.maximum(np.abs(orel @ v) - (self.finger_w / 2 + p.margin), 0.0)
+        dist = np.hypot(ds, dt)
+        return (float(dist.min()) if (dist > 0).all() else -1.0), c2, hi - lo
+
+    def best_grasp(self, hm: Heightmap, obj: np.ndarray, others: np.ndarray, cells: _Cells,
+                   tabu: list[tuple[int, float, float]], rotations: list[int] | None = None) -> Action | None:
+        """Best free grasp of the object cells `obj` ((H, W) bool) among `others` ((H, W) bool), or None."""
+        o = obj[cells.slice].reshape(-1)
+        if not o.any():
+            return None
+        t_xy = cells.xy[o]
+        oth = others[cells.slice].reshape(-1)
+        o_xy, o_h = cells.xy[oth], cells.h[oth]
+        centroid = t_xy.mean(axis=0)
+        half = self.rotations // 2
+        best: Action | None = None
+        for r in rotations if rotations is not None else range(half):
+            yaw = self.yaw(r)
+            v = np.array([-math.sin(yaw), math.cos(yaw)])
+            for off in OFFSETS:
+                centre = centroid + off * v
+                pix = self._pixel(hm, centre)
+                if pix is None or not obj[pix]:
+                    continue
+                zg = grasp_z(hm.height, pix[0], pix[1], self.g.primitives)
+                fit = self.grasp_fit(t_xy, o_xy, o_h, centre, yaw, zg)
+                if fit is None or fit[0] < 0:
+                    continue
+                pix2 = self._pixel(hm, fit[1])
+                if pix2 is None or not obj[pix2] or not self._inside(fit[1], 0.0):
+                    continue
+                if any(rt % half == r % half and math.hypot(fit[1][0] - x, fit[1][1] - y) < self.p.repeat_radius
+                       for rt, x, y in tabu):
+                    continue
+                # enough clearance, then the narrowest width (pads parallel to faces, not across a long or
+                # tilted side), then a central grasp line
+                score = min(fit[0], self.p.enough_clearance) - self.p.width_weight * fit[2] - 0.3 * abs(off)
+                if best is None or score > best.score:
+                    best = Action("grasp", r, pix2[0], pix2[1], score, f"free grasp, clearance {fit[0]:.3f} m")
+        return best
+
+    # -- push ----------------------------------------------------------------------------------------------------
+    def best_push(self, hm: Heightmap, target: np.ndarray, cells: _Cells) -> Action | None:
+        """Best push of the target out of the clutter (module docstring, rule 2), or None if no start is free."""
+        p, prims = self.p, self.g.primitives
+        t = target[cells.slice].reshape(-1)
+        occ = (cells.h > p.occupied) & ~_dilate(target, 1)[cells.slice].reshape(-1)
+        t_xy, o_xy, o_h = cells.xy[t], cells.xy[occ], cells.h[occ]
+        c = t_xy.mean(axis=0)
+        a = self.finger_t  # closed fingers: 2 x thickness along d, finger width along v
+        b = self.finger_w / 2
+        best: Action | None = None
+        for k in range(self.rotations):
+            yaw = self.yaw(k)
+            d = np.array([math.cos(yaw), math.sin(yaw)])
+            v = np.array([-d[1], d[0]])
+            s_t, v_t = (t_xy - c) @ d, (t_xy - c) @ v
+            back, front, w = float(s_t.min()), float(s_t.max()), float(np.abs(v_t).max())
+            s_o, v_o = (o_xy - c) @ d, (o_xy - c) @ v
+            start, delta, blocked_len, pix = None, p.push_gap, 0.0, None
+            while delta <= p.max_backoff:
+                sc = c + (back - a - delta) * d
+                pix = self._pixel(hm, sc)
+                if pix is None or not self._inside(sc, 0.0):
+                    break
+                zp = push_z(hm.height, pix[0], pix[1], prims)
+                s0 = back - a - delta
+                foot = (np.abs(s_o - s0) <= a + p.margin) & (np.abs(v_o) <= b + p.margin) & (o_h > zp - 0.002)
+                if not foot.any():
+                    start = sc
+                    break
+                blocked_len += 0.002
+                delta += 0.002
+            if start is None or pix is None:
+                continue
+            travel = max(prims.push_length - (delta - blocked_len), 0.0)
+            corridor = np.abs(v_o) <= w + p.margin
+            ahead = corridor & (s_o > front) & (s_o <= front + travel)
+            free_run = float(s_o[ahead].min() - front) if ahead.any() else travel
+            end = c + travel * d
+            if not self._inside(end, p.edge_margin):
+                continue
+            moving = corridor & (s_o >= back - a - delta - p.margin)
+            keep = ~moving
+            post = self.grasp_fit(t_xy + travel * d, o_xy[keep], o_h[keep], end, yaw + math.pi / 2,
+                                  max(float(np.median(cells.h[t])) - prims.grasp_depth, prims.grasp_min_z))
+            post_ok = post is not None and post[0] >= 0
+            post_clear = min(post[0], 0.02) if post_ok else 0.0  # type: ignore[index]
+            score = (2.0 * post_ok + 20.0 * post_clear + min(free_run, travel) / prims.push_length
+                     - (delta - blocked_len) / prims.push_length - 0.3 * (blocked_len > 0))
+            if best is None or score > best.score:
+                best = Action("push", k, pix[0], pix[1], score,
+                              f"push target out: travel {travel:.3f} m, free run {free_run:.3f} m, "
+                              f"grasp after {'free' if post_ok else 'blocked'}")
+        return best
+
+    # -- other objects -------------------------------------------------------------------------------------------
+    def blobs(self, hm: Heightmap, exclude: np.ndarray | None = None) -> list[tuple[str, np.ndarray, np.ndarray]]:
+        """(colour name, (H, W) bool cells, centre (x, y) m) of each single-colour object region on the table."""
+        import cv2
+
+        from pg_core.palette import PALETTE
+        from pg_core.target_mask import target_mask
+
+        occupied = hm.height > self.p.occupied
+        if exclude is not None:
+            occupied &= ~exclude
+        out = []
+        for name in PALETTE:
+            mask = target_mask(hm.color, hm.valid, name) & occupied
+            if mask.sum() < self.p.min_target_cells:
+                continue
+            n, labels = cv2.connectedComponents(mask.astype(np.uint8), connectivity=8)
+            for i in range(1, n):
+                blob = labels == i
+                if blob.sum() >= self.p.min_target_cells:
+                    out.append((name, blob, self._centre(hm, blob)))
+        return out
+
+    @staticmethod
+    def _centre(hm: Heightmap, mask: np.ndarray) -> np.ndarray:
+        rows, cols = np.nonzero(mask)
+        return np.array([hm.bounds[0, 0] + (cols.mean() + 0.5) * hm.resolution,
+                         hm.bounds[1, 0] + (rows.mean() + 0.5) * hm.resolution])
+
+    def _grasp_of(self, hm: Heightmap, blob: np.ndarray, centre: np.ndarray,
+                  tabu: list[tuple[int, float, float]]) -> Action | None:
+        occupied = hm.height > self.p.occupied
+        return self.best_grasp(hm, blob, occupied & ~_dilate(blob, 1), _Cells(hm, centre, self.p.window), tabu)
+
+    def uncover(self, hm: Heightmap, last_seen: np.ndarray | None,
+                tabu: list[tuple[int, float, float]]) -> Action | None:
+        """Target hidden: the most graspable other object (by colour blob), near `last_seen` and high ones first."""
+        best: Action | None = None
+        for name, blob, centre in self.blobs(hm):
+            act = self._grasp_of(hm, blob, centre, tabu)
+            if act is None:
+                continue
+            near = 0.0 if last_seen is None else float(np.linalg.norm(centre - last_seen))
+            score = float(hm.height[blob].max()) - 0.5 * near + act.score
+            if best is None or score > best.score:
+                best = Action("grasp", act.rotation, act.row, act.col, score, f"uncover: grasp {name} object")
+        return best
+
+    def remove_on_top(self, hm: Heightmap, target: np.ndarray,
+                      tabu: list[tuple[int, float, float]]) -> Action | None:
+        """Something lies on the target (higher cells of another object inside the target's convex hull): grasp the
+        object that covers most of those cells away; None when nothing lies on it or it cannot be grasped."""
+        import cv2
+
+        pts = np.argwhere(target)[:, ::-1].astype(np.int32)  # (col, row)
+        hull = np.zeros(target.shape, np.uint8)
+        cv2.fillConvexPoly(hull, cv2.convexHull(pts), 1)
+        top = float(np.median(hm.height[target]))
+        over = hull.astype(bool) & ~_dilate(target, 1) & (hm.height > top + self.p.on_top)
+        if over.sum() < self.p.min_target_cells:
+            return None
+        best: Action | None = None
+        for name, blob, centre in self.blobs(hm, exclude=_dilate(target, 1)):
+            cover = int((blob & over).sum())
+            if cover < self.p.min_target_cells:
+                continue
+            act = self._grasp_of(hm, blob, centre, tabu)
+            if act is not None and (best is None or cover > best.score):
+                best = Action("grasp", act.rotation, act.row, act.col, cover, f"remove {name} object on the target")
+        return best
+
+    def remove_blocker(self, hm: Heightmap, target: np.ndarray, cells: _Cells,
+                       tabu: list[tuple[int, float, float]]) -> Action | None:
+        """Grasp (and so remove) the neighbour whose absence frees a grasp of the target; None if there is none."""
+        occupied = hm.height > self.p.occupied
+        near = _dilate(target, int(round(0.02 / hm.resolution)))
+        best: Action | None = None
+        for name, blob, centre in self.blobs(hm, exclude=_dilate(target, 1)):
+            if not (blob & near).any():
+                continue
+            after = self.best_grasp(hm, target, occupied & ~_dilate(target, 1) & ~_dilate(blob, 1), cells, [])
+            if after is None:
+                continue
+            act = self._grasp_of(hm, blob, centre, tabu)
+            if act is not None and (best is None or act.score + after.score > best.score):
+                best = Action("grasp", act.rotation, act.row, act.col, act.score + after.score,
+                              f"remove blocking {name} object")
+        return best
+
+    def fallback(self, hm: Heightmap, rng: np.random.Generator) -> Action:
+        """Nothing sensible: push from a random occupied cell in a random direction (keeps the trial moving)."""
+        occ = np.argwhere(hm.height > self.p.occupied)
+        if len(occ) == 0:
+            occ = np.argwhere(np.ones_like(hm.valid))
+        r, c = occ[int(rng.integers(len(occ)))]
+        return Action("push", int(rng.integers(self.rotations)), int(r), int(c), -1e9, "fallback: random push")
+
+    # -- top level -------------------------------------------------------------------------------------------------
+    def push_of(self, hm: Heightmap, target: np.ndarray) -> Action | None:
+        """The rule's push of a visible target (rule 2) whether or not a grasp is free; None when the target has
+        fewer than `min_target_cells` cells or no push start is free. Used to guide exploration in training."""
+        if int(target.sum()) < self.p.min_target_cells:
+            return None
+        return self.best_push(hm, target, self.around(hm, target)[0])
+
+    def grasp_of(self, hm: Heightmap, target: np.ndarray) -> Action | None:
+        """The rule's free grasp of a visible target (rule 1), None when there is none or the target has fewer than
+        `min_target_cells` cells. Used to guide exploration in training."""
+        if int(target.sum()) < self.p.min_target_cells:
+            return None
+        cells, others = self.around(hm, target)
+        return self.best_grasp(hm, target, others, cells, [])
+
+    def around(self, hm: Heightmap, target: np.ndarray) -> tuple[_Cells, np.ndarray]:
+        """The examined window around a visible target and the (H, W) bool cells of other objects."""
+        return _Cells(hm, self._centre(hm, target), self.p.window), (hm.height > self.p.occupied) & ~_dilate(target, 1)
+
+    def guide(self, primitive: str, hm: Heightmap, target: np.ndarray) -> Action | None:
+        """`push_of` or `grasp_of` by primitive name."""
+        return self.push_of(hm, target) if primitive == "push" else self.grasp_of(hm, target)
+
+    def plan(self, hm: Heightmap, target: np.ndarray, tabu: list[tuple[int, float, float]],
+             last_seen: np.ndarray | None, rng: np.random.Generator, pushes_in_row: int = 0) -> Action:
+        """The action of the rule (module docstring) for a target mask ((H, W) bool, possibly empty).
+
+        pushes_in_row: pushes since the last grasp (from `declutter_after` on, a blocking neighbour may be removed).
+        """
+        if int(target.sum()) >= self.p.min_target_cells:
+            cells, others = self.around(hm, target)
+            act = self.remove_on_top(hm, target, tabu)
+            if act is None:
+                act = self.best_grasp(hm, target, others, cells, tabu)
+            if act is None and pushes_in_row >= self.p.declutter_after:
+                act = self.remove_blocker(hm, target, cells, tabu)
+            if act is None:
+                act = self.best_push(hm, target, cells)
+            if act is not None:
+                return act
+        act = self.uncover(hm, last_seen, tabu)
+        return act if act is not None else self.fallback(hm, rng)

@@ -1,0 +1,445 @@
+"""The simulated robot cell as a real-time-ish device (no ROS): the core of the rospy sim node.
+
+`SimRuntime` owns a `World` and, one fixed physics step (1/240 s) at a time:
+- follows joint trajectories per arm (pg_sim.robot.trajectory: JointTrajectory semantics, position control within the
+  joint velocity limit) and gripper opening commands (metres, clamped to [0, max_opening]);
+- reports what is due at this sim time: /clock ticks, joint states, camera captures (organised cloud included), the
+  ground-truth scene state with object markers;
+- resets to a shipped scene name, a scene YAML file or ``random`` N objects from a seed, validating first: a refused
+  reset changes nothing;
+- paces sim time against wall time (`Pacer`): as fast as possible (or at most ``real_time_factor``) while something
+  moves, ``idle_real_time_factor`` (default real time) while nothing does, so an idle sim sleeps.
+
+Threading: the ``submit_*`` methods may be called from any thread (ROS callbacks); they only enqueue. Everything else
+(and PyBullet, which is not thread-safe) belongs to the thread that calls `step()`.
+
+Objects that fall off the table, or rest outside the workspace after a gripper released them, are left where they
+are (the controller drops grasped objects at the home pose, outside the workspace). An object that has fallen below
+the table (z < FALLEN_Z) is frozen there (made static) so it does not fall forever and keep the sim busy.
+"""
+
+from __future__ import annotations
+
+import queue
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+
+from pg_core.geometry import Geometry
+from pg_sim.robot.trajectory import JointTrajectory, TrajectoryError, TrajectoryFollower
+from pg_sim.runtime.runtime_types import (
+    CameraCapture,
+    JointStateData,
+    ObjectState,
+    PendingReset,
+    ResetRequest,
+    ResetResult,
+    SceneState,
+    StepOutput,
+)
+from pg_sim.scenes.colors import color_name, nearest_color_name, rgba
+from pg_sim.scenes.objects import build_shape
+from pg_sim.scenes.scene import SceneError, SceneSpec, find_scene, load_scene
+from pg_sim.scenes.scene_source import RANDOM
+from pg_sim.world.pacer import Pacer, Periodic
+from pg_sim.world.sensor_data import CloudBuilder, MarkerPart, ObjectMarker, depth_with_nan, marker_parts, pose_parts
+from pg_sim.world.world import World
+
+FALLEN_Z = -0.5          # m: objects below this have left the table for good and are frozen
+MAX_RANDOM_OBJECTS = 40  # largest random scene a reset accepts
+ARM_SETTLE_TOL = 2e-3    # rad: after a trajectory the arm counts as moving until within this of its reference
+ARM_SETTLE_MAX = 1.0     # s: ... or for at most this long (an arm pressing on an object may never get there)
+GRIPPER_MIN_BUSY = 0.05  # s after a gripper command during which it counts as moving (fingers still accelerating)
+GRIPPER_MAX_BUSY = 2.0   # s: a gripper stops counting as moving after this long, stalled or not
+OBJECT_LIN_TOL = 0.01    # m/s: an object moving faster than this keeps the sim busy
+OBJECT_ANG_TOL = 0.1     # rad/s
+MAX_START_DELAY = 10.0   # s: a trajectory stamped further in the future is refused (a wall-clock stamp, surely)
+CAMERA_REUSE_MAX = 5.0   # s: an unchanged scene re-uses its last render for at most this long
+
+
+@dataclass(frozen=True)
+class RuntimeConfig:
+    """Rates are in Hz of sim time (<= 0 disables the output); real-time factors: 0 = as fast as possible."""
+
+    scene: str = "packed/case01"
+    seed: int = 0
+    num_objects: int = 10
+    gui: bool = False
+    time_step: float = 1.0 / 240.0
+    camera_rate: float = 2.0
+    joint_state_rate: float = 50.0
+    clock_rate: float = 100.0
+    scene_state_rate: float = 2.0
+    real_time_factor: float = 0.0       # cap while something moves
+    idle_real_time_factor: float = 1.0  # cap while nothing moves
+
+
+class _Arm:
+    def __init__(self, name: str, runtime: SimRuntime) -> None:
+        world, geo = runtime.world, runtime.geometry
+        self.name = name
+        self.driver = world.arms[name]
+        self.joint_names = tuple(f"{name}_{j}" for j in geo.robot.joint_names)
+        self.finger_names = (f"{name}_gripper_finger1_joint", f"{name}_gripper_finger2_joint")
+        self.follower = TrajectoryFollower(self.joint_names, np.asarray(geo.robot.arms[name].home),
+                                           geo.robot.joint_velocity_limit, geo.robot.joint_lower,
+                                           geo.robot.joint_upper, prefix=f"{name}_")
+        self.settle_until = -1.0
+        self.tracking = False  # a trajectory was given and its settling has not started yet
+        self.gripper_target = geo.gripper.max_opening
+        self.gripper_time = -np.inf
+
+    def home(self, q: np.ndarray, opening: float) -> None:
+        self.follower.stop(hold=q)
+        self.settle_until = -1.0
+        self.tracking = False
+        self.gripper_target = opening
+        self.gripper_time = -np.inf
+
+
+class SimRuntime:
+    """See the module docstring. Construct, then call `step()` in a loop from one thread; `close()` at the end."""
+
+    def __init__(self, config: RuntimeConfig | None = None, geometry: Geometry | None = None,
+                 pacer: Pacer | None = None) -> None:
+        self.config = cfg = config or RuntimeConfig()
+        first = self._resolve(ResetRequest(cfg.scene, cfg.num_objects, cfg.seed))  # raises SceneError: no world yet
+        self.world = World(geometry, gui=cfg.gui, time_step=cfg.time_step)
+        self.geometry = self.world.geometry
+        self.pacer = pacer or Pacer(cfg.real_time_factor, cfg.idle_real_time_factor)
+        self.arms = {name: _Arm(name, self) for name in self.geometry.robot.arms}
+        self.commands_: queue.SimpleQueue[tuple] = queue.SimpleQueue()
+        self.frozen_: set[int] = set()
+        self.marker_parts_: dict[int, list[MarkerPart]] = {}
+        self.cloud_builder_ = CloudBuilder(self.geometry.camera.intrinsics, self.geometry.camera.width,
+                                           self.geometry.camera.height)
+        self.clock_ = Periodic(cfg.clock_rate)
+        self.joint_state_ = Periodic(cfg.joint_state_rate)
+        self.camera_ = Periodic(cfg.camera_rate)
+        self.scene_state_ = Periodic(cfg.scene_state_rate)
+        self.last_capture_: CameraCapture | None = None
+        self.last_render_time_ = -np.inf
+        self.dirty_ = True  # something may have moved since the last render
+        self.busy = False
+        self.objects_moving_ = True
+        self.step_count = 0
+        self.busy_steps = 0
+        all_names = [n for a in self.arms.values() for n in (*a.joint_names, *a.finger_names)]
+        self.joint_names = tuple(all_names)
+        robot = self.world.robot
+        self.joint_indices_ = [j for a in robot.arms.values() for j in (*a.joints, *a.fingers)]
+        try:
+            result = self._apply_reset(*first)
+        except Exception:
+            self.world.close()
+            raise
+        if not result.success:
+            self.world.close()
+            raise SceneError(result.message)
+
+    # -- lifecycle ---------------------------------------------------------------------------------------------
+    def close(self) -> None:
+        self.world.close()
+
+    def __enter__(self) -> SimRuntime:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def sim_time(self) -> float:
+        return self.world.sim_time
+
+    # -- thread-safe submissions ---------------------------------------------------------------------------------
+    def submit_trajectory(self, arm: str, trajectory: JointTrajectory) -> None:
+        self.commands_.put(("trajectory", arm, trajectory))
+
+    def submit_gripper(self, arm: str, opening: float) -> None:
+        self.commands_.put(("gripper", arm, float(opening)))
+
+    def submit_reset(self, request: ResetRequest) -> PendingReset:
+        pending = PendingReset(request)
+        self.commands_.put(("reset", "", pending))
+        return pending
+
+    # -- direct commands (stepping thread only) ----------------------------------------------------------------
+    def command_trajectory(self, arm: str, trajectory: JointTrajectory) -> None:
+        """Replace the arm's trajectory; raises TrajectoryError / KeyError and changes nothing when refused."""
+        if arm not in self.arms:
+            raise KeyError(f"unknown arm {arm!r}; arms: {sorted(self.arms)}")
+        ahead = trajectory.stamp - self.sim_time
+        if ahead > MAX_START_DELAY:
+            raise TrajectoryError(f"header.stamp {trajectory.stamp:.3f} s is {ahead:.1f} s after the sim time "
+                                  f"{self.sim_time:.3f} s: stamp with sim time (/use_sim_time) or 0 for 'now'")
+        a = self.arms[arm]
+        a.follower.set_trajectory(trajectory, self.sim_time)
+        if not a.follower.active:  # empty trajectory: stop where the arm is now
+            a.follower.stop(hold=a.driver.joints())
+        a.tracking = True
+
+    def command_gripper(self, arm: str, opening: float) -> float:
+        """Move the arm's fingers towards ``opening`` m (clamped to [0, max_opening]); returns the clamped value."""
+        if arm not in self.arms:
+            raise KeyError(f"unknown arm {arm!r}; arms: {sorted(self.arms)}")
+        if not np.isfinite(opening):
+            raise ValueError(f"gripper opening must be finite, got {opening}")
+        target = float(np.clip(opening, 0.0, self.geometry.gripper.max_opening))
+        a = self.arms[arm]
+        a.driver.command_gripper(target)
+        a.gripper_target, a.gripper_time = target, self.sim_time
+        return target
+
+    def reset(self, request: ResetRequest) -> ResetResult:
+        """Load a scene (validated first: on refusal nothing changes); arms homed, grippers open."""
+        try:
+            resolved = self._resolve(request)
+        except (SceneError, ValueError, OSError, RuntimeError) as e:
+            return ResetResult(False, f"reset refused, scene unchanged: {e}")
+        return self._apply_reset(*resolved)
+
+    # -- stepping ----------------------------------------------------------------------------------------------
+    def step(self) -> StepOutput:
+        """Apply queued commands, advance physics one step, pace, and report what is due."""
+        messages = self._drain()
+        now = self.sim_time + self.world.time_step
+        for a in self.arms.values():
+            q, qd = a.follower.update(now, self.world.time_step)
+            a.driver.command(q, qd, self.geometry.robot.joint_velocity_limit)
+            if a.tracking and not a.follower.active:  # reference reached the goal: settle
+                a.tracking = False
+                a.settle_until = now + ARM_SETTLE_MAX
+        self.world.step()
+        t = self.sim_time
+        busy = self._busy(t)
+        self.busy = busy
+        self.step_count += 1
+        self.busy_steps += int(busy)
+        if busy:
+            self.dirty_ = True
+        out = StepOutput(sim_time=t, busy=busy, messages=messages)
+        out.clock = self.clock_.due(t)
+        if self.joint_state_.due(t):
+            out.joint_state = self.joint_state()
+        if self.camera_.due(t):
+            out.camera = self.capture()
+        if self.step_count % 60 == 0:
+            self._freeze_fallen()
+        if self.scene_state_.due(t):
+            out.scene_state = self.scene_state()
+            out.markers = self.markers()
+        self.pacer.pace(t, busy)
+        return out
+
+    def run_for(self, seconds: float) -> list[StepOutput]:
+        """Step for ``seconds`` of sim time (tests and tools); returns the outputs that had something due."""
+        outs = []
+        end = self.sim_time + seconds - 1e-9
+        while self.sim_time < end:
+            o = self.step()
+            if o.joint_state or o.camera or o.scene_state or o.messages:
+                outs.append(o)
+        return outs
+
+    # -- outputs -----------------------------------------------------------------------------------------------
+    def joint_state(self) -> JointStateData:
+        states = p.getJointStates(self.world.robot.body, self.joint_indices_, physicsClientId=self.world.client)
+        return JointStateData(self.sim_time, self.joint_names, np.array([s[0] for s in states]),
+                              np.array([s[1] for s in states]))
+
+    def capture(self, force: bool = False) -> CameraCapture:
+        """Render (or, when nothing moved since the last render, re-use it with a new stamp)."""
+        t = self.sim_time
+        last = self.last_capture_
+        if (not force and last is not None and not self.dirty_ and t - self.last_render_time_ < CAMERA_REUSE_MAX):
+            cap = CameraCapture(t, last.color, last.depth, last.cloud, last.seq, False, 0.0)
+        else:
+            t0 = time.perf_counter()
+            frame = self.world.capture()
+            depth = depth_with_nan(frame.depth)
+            cloud = self.cloud_builder_.build(depth, frame.color)
+            seq = last.seq + 1 if last is not None else 0
+            cap = CameraCapture(t, frame.color, depth, cloud, seq, True, time.perf_counter() - t0)
+            self.dirty_ = False
+            self.last_render_time_ = t
+        self.last_capture_ = cap
+        return cap
+
+    def scene_state(self) -> SceneState:
+        w = self.world
+        ws = self.geometry.workspace
+        objects = []
+        target_in = False
+        for body, spec in w.objects.items():
+            pos, quat = p.getBasePositionAndOrientation(body, physicsClientId=w.client)
+            inside = ws.contains(np.asarray(pos))
+            objects.append(ObjectState(
+                name=spec.name, shape=spec.shape, color_name=color_name(spec.color) or nearest_color_name(spec.color),
+                rgb=tuple(int(c) for c in spec.color), target=body == w.target_id,  # type: ignore[arg-type]
+                position=tuple(float(v) for v in pos), quaternion=tuple(float(v) for v in quat),  # type: ignore[arg-type]
+                in_workspace=inside,
+            ))
+            target_in = target_in or (body == w.target_id and inside)
+        scene = w.scene
+        return SceneState(self.sim_time, scene.name if scene else "", scene.target if scene and w.target_id is not None
+                          else "", target_in, tuple(objects))
+
+    def markers(self) -> list[ObjectMarker]:
+        w = self.world
+        out: list[ObjectMarker] = []
+        for body, spec in w.objects.items():
+            pos, quat = p.getBasePositionAndOrientation(body, physicsClientId=w.client)
+            out += pose_parts(spec.name, self.marker_parts_.get(body, []), np.asarray(pos), np.asarray(quat),
+                              rgba(spec.color))
+        return out
+
+    def arm_joints(self, arm: str) -> np.ndarray:
+        return self.arms[arm].driver.joints()
+
+    def gripper_opening(self, arm: str) -> float:
+        return self.arms[arm].driver.opening()
+
+    # -- internals ---------------------------------------------------------------------------------------------
+    def _drain(self) -> list[str]:
+        messages = []
+        while True:
+            try:
+                kind, arm, payload = self.commands_.get_nowait()
+            except queue.Empty:
+                return messages
+            try:
+                if kind == "trajectory":
+                    self.command_trajectory(arm, payload)
+                elif kind == "gripper":
+                    self.command_gripper(arm, payload)
+                elif kind == "reset":
+                    try:
+                        result = self.reset(payload.request)
+                    except Exception as e:  # never leave a service caller waiting
+                        result = ResetResult(False, f"reset failed: {type(e).__name__}: {e}")
+                    payload.finish(result)
+                    if not result.success:
+                        messages.append(result.message)
+            except (TrajectoryError, KeyError, ValueError) as e:
+                messages.append(f"{arm} {kind} command refused: {e}")
+
+    def _resolve(self, req: ResetRequest) -> tuple[SceneSpec, bool]:
+        """The scene of a request and whether it is a random drop; raises SceneError/ValueError before any change."""
+        text = (req.scene or "").strip()
+        if not text:
+            raise SceneError("empty scene: give a shipped scene name (e.g. packed/case01), a YAML file or 'random'")
+        match = RANDOM.match(text)
+        if text == "random" or match:
+            from pg_sim.scenes.random_scene import sample_drops
+
+            n = int(match.group(1)) if match else int(req.num_objects)
+            if match and req.num_objects and int(req.num_objects) != n:
+                raise SceneError(f"scene {text!r} names {n} objects but num_objects is {req.num_objects}")
+            if not 1 <= n <= MAX_RANDOM_OBJECTS:
+                raise SceneError(f"a random scene needs num_objects in [1, {MAX_RANDOM_OBJECTS}], got {n}")
+            scene, random = sample_drops(n, int(req.seed)), True
+        else:
+            scene, random = load_scene(find_scene(text)), False
+        _check_buildable(scene)
+        return scene, random
+
+    def _apply_reset(self, scene: SceneSpec, random: bool) -> ResetResult:
+        w = self.world
+        previous = w.snapshot() if w.scene is not None else None
+        try:
+            if random:
+                from pg_sim.scenes.random_scene import drop_scene
+
+                drop_scene(w, scene)
+            else:
+                w.load_scene(scene)
+        except Exception as e:  # restore the previous objects (at their last poses)
+            w.clear_objects()
+            if previous is not None:
+                w.load_scene(previous, settle=False)
+            self._after_scene_change()
+            return ResetResult(False, f"reset failed while loading {scene.name!r}, previous scene restored: {e}")
+        self._after_scene_change()
+        loaded = w.scene
+        assert loaded is not None
+        return ResetResult(True, f"loaded {loaded.name} ({len(w.objects)} objects, target {loaded.target})",
+                           loaded.name, loaded.target, len(w.objects))
+
+    def _after_scene_change(self) -> None:
+        g = self.geometry
+        w = self.world
+        w.home()
+        for name, a in self.arms.items():
+            a.home(np.asarray(g.robot.arms[name].home), g.gripper.max_opening)
+        self.frozen_.clear()
+        self.marker_parts_ = {b: marker_parts(spec) for b, spec in w.objects.items()}
+        self.dirty_ = True
+        t = self.sim_time
+        for periodic in (self.clock_, self.joint_state_, self.camera_, self.scene_state_):
+            periodic.force(t)
+        self.pacer.reanchor()
+
+    def _busy(self, t: float) -> bool:
+        busy = False
+        for a in self.arms.values():
+            if a.follower.active:
+                busy = True
+            elif t < a.settle_until:
+                states = p.getJointStates(self.world.robot.body, a.driver.arm.joints, physicsClientId=self.world.client)
+                err = np.abs(np.array([s[0] for s in states]) - a.follower.reference).max()
+                vel = np.abs(np.array([s[1] for s in states])).max()
+                if err < ARM_SETTLE_TOL and vel < 10 * ARM_SETTLE_TOL:
+                    a.settle_until = -1.0
+                else:
+                    busy = True
+            since = t - a.gripper_time
+            if since < GRIPPER_MAX_BUSY:
+                if since < GRIPPER_MIN_BUSY:
+                    busy = True
+                else:
+                    fingers = p.getJointStates(self.world.robot.body, a.driver.arm.fingers,
+                                               physicsClientId=self.world.client)
+                    if max(abs(s[1]) for s in fingers) > 1e-3:
+                        busy = True
+                    else:
+                        a.gripper_time = -np.inf  # stopped (reached or stalled)
+        if self.step_count % 4 == 0:  # objects every 4th step (1/60 s); the result holds in between
+            self.objects_moving_ = self._objects_moving()
+        return busy or self.objects_moving_
+
+    def _objects_moving(self) -> bool:
+        c = self.world.client
+        for body in self.world.objects:
+            if body in self.frozen_:
+                continue
+            lin, ang = p.getBaseVelocity(body, physicsClientId=c)
+            if np.dot(lin, lin) > OBJECT_LIN_TOL ** 2 or np.dot(ang, ang) > OBJECT_ANG_TOL ** 2:
+                return True
+        return False
+
+    def _freeze_fallen(self) -> None:
+        c = self.world.client
+        for body in self.world.objects:
+            if body in self.frozen_:
+                continue
+            pos, _ = p.getBasePositionAndOrientation(body, physicsClientId=c)
+            if pos[2] < FALLEN_Z:
+                p.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=c)
+                p.changeDynamics(body, -1, mass=0.0, physicsClientId=c)  # static from now on
+                self.frozen_.add(body)
+
+
+def _check_buildable(scene: SceneSpec) -> None:
+    """Build every object's shapes in a scratch PyBullet client; raises ValueError naming the first that fails."""
+    client = p.connect(p.DIRECT)
+    try:
+        for spec in scene.objects:
+            try:
+                build_shape(client, spec)
+            except (ValueError, OSError, RuntimeError, p.error) as e:
+                raise SceneError(f"scene {scene.name!r}: object {spec.name!r} ({spec.shape}) cannot be built: {e}") \
+                    from None
+    finally:
+        p.disconnect(client)

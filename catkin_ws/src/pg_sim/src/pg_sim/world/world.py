@@ -1,0 +1,159 @@
+"""The PyBullet world: table, dual UR5e with grippers, RGB-D camera and scene objects (no ROS).
+
+Frame: PyBullet's world frame IS `world` (table surface at z = 0, workspace centre at the origin).
+Time: fixed physics step `time_step` (s); `sim_time` counts simulated seconds since construction.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pybullet as p
+
+from pg_core import heightmap as hm
+from pg_core.geometry import Geometry, load
+from pg_sim.robot.arm_driver import ArmDriver
+from pg_sim.robot.ik import IkSolver
+from pg_sim.robot.robot_model import load_robot
+from pg_sim.scenes.objects import object_pose, spawn_object
+from pg_sim.scenes.scene import ObjectSpec, SceneSpec
+from pg_sim.world.camera import Frame, SimCamera
+
+
+@dataclass(frozen=True)
+class Observation:
+    frame: Frame
+    heightmap: hm.Heightmap
+    sim_time: float
+
+
+class World:
+    """A simulated cell. Use as a context manager or call close(); `gui=True` opens the PyBullet window."""
+
+    def __init__(self, geometry: Geometry | None = None, gui: bool = False, time_step: float = 1 / 240,
+                 solver_iterations: int = 50) -> None:
+        self.geometry = geometry or load()
+        self.client = p.connect(p.GUI if gui else p.DIRECT)
+        p.setGravity(0, 0, -9.81, physicsClientId=self.client)
+        p.setPhysicsEngineParameter(fixedTimeStep=time_step, numSolverIterations=solver_iterations,
+                                    physicsClientId=self.client)
+        self.time_step = time_step
+        self.sim_time = 0.0
+        self.robot = load_robot(self.client, self.geometry)
+        self.ik = IkSolver(self.geometry)
+        self.arms = {
+            name: ArmDriver(self.client, self.robot.body, idx, self.geometry, self.step)
+            for name, idx in self.robot.arms.items()
+        }
+        self.camera = SimCamera(self.client, self.geometry.camera)
+        self.objects: dict[int, ObjectSpec] = {}
+        self.target_id: int | None = None
+        self.scene: SceneSpec | None = None
+        self.home()
+
+    # -- lifecycle ---------------------------------------------------------------------------------------------
+    def close(self) -> None:
+        self.ik.close()
+        if p.isConnected(self.client):
+            p.disconnect(self.client)
+
+    def __enter__(self) -> World:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def step(self) -> float:
+        p.stepSimulation(physicsClientId=self.client)
+        self.sim_time += self.time_step
+        return self.sim_time
+
+    def home(self) -> None:
+        """Teleport both arms to their home configuration with open grippers (scene setup only)."""
+        for name, driver in self.arms.items():
+            driver.reset(self.geometry.robot.arms[name].home, self.geometry.gripper.max_opening)
+
+    # -- objects -----------------------------------------------------------------------------------------------
+    def clear_objects(self) -> None:
+        for body in list(self.objects):
+            p.removeBody(body, physicsClientId=self.client)
+        self.objects.clear()
+        self.target_id = None
+        self.scene = None
+
+    def add_object(self, spec: ObjectSpec) -> int:
+        body = spawn_object(self.client, spec)
+        self.objects[body] = spec
+        if spec.target:
+            self.target_id = body
+        return body
+
+    def remove_object(self, body: int) -> None:
+        p.removeBody(body, physicsClientId=self.client)
+        self.objects.pop(body)
+        if body == self.target_id:
+            self.target_id = None
+
+    def load_scene(self, scene: SceneSpec, settle: bool = True) -> None:
+        """Replace all objects by the scene's (arms homed); raises SceneError for specs that cannot be built."""
+        self.clear_objects()
+        self.home()
+        for spec in scene.objects:
+            self.add_object(spec)
+        self.scene = scene
+        if settle:
+            self.settle()
+
+    def settle(self, max_time: float = 3.0, min_time: float = 0.2, lin_tol: float = 2e-3,
+               ang_tol: float = 2e-2) -> float:
+        """Step until every object is at rest (m/s, rad/s tolerances) or max_time passes; returns time stepped."""
+        t0 = self.sim_time
+        while self.sim_time - t0 < max_time:
+            for _ in range(12):
+                self.step()
+            if self.sim_time - t0 < min_time:
+                continue
+            if all(self._at_rest(b, lin_tol, ang_tol) for b in self.objects):
+                break
+        return self.sim_time - t0
+
+    def _at_rest(self, body: int, lin_tol: float, ang_tol: float) -> bool:
+        lin, ang = p.getBaseVelocity(body, physicsClientId=self.client)
+        return float(np.linalg.norm(lin)) < lin_tol and float(np.linalg.norm(ang)) < ang_tol
+
+    def object_poses(self) -> dict[int, np.ndarray]:
+        """Body id -> (x, y, z, roll, pitch, yaw) in world."""
+        return {b: object_pose(self.client, b) for b in self.objects}
+
+    def snapshot(self, name: str | None = None) -> SceneSpec:
+        """The current objects as a scene (their present poses), e.g. to save a settled random scene."""
+        from dataclasses import replace
+
+        poses = self.object_poses()
+        objs = tuple(replace(spec, pose=tuple(float(v) for v in poses[b])) for b, spec in self.objects.items())
+        base = self.scene
+        return SceneSpec(name=name or (base.name if base else "snapshot"), target=base.target if base else "green",
+                         objects=objs, family=base.family if base else "snapshot")
+
+    # -- sensing -----------------------------------------------------------------------------------------------
+    def capture(self) -> Frame:
+        return self.camera.capture()
+
+    def observe(self) -> Observation:
+        """Render the camera and project its cloud to the workspace heightmap."""
+        frame = self.capture()
+        pts, colors = self.camera.point_cloud(frame)
+        heightmap = hm.from_camera_cloud(pts, colors, self.camera.pose, self.geometry)
+        return Observation(frame=frame, heightmap=heightmap, sim_time=self.sim_time)
+
+    def object_mask(self, frame: Frame, body: int) -> np.ndarray:
+        """Ground-truth (H, W) bool image mask of one object in a captured frame."""
+        return frame.segmentation == body
+
+    def label_heightmap(self, frame: Frame) -> np.ndarray:
+        """Ground truth: (rows, cols) int64 body id seen at the top of each heightmap cell (-1 where empty)."""
+        pts, _ = self.camera.point_cloud(frame)
+        world_pts = hm.transform_points(pts, self.camera.pose)
+        g = self.geometry
+        return hm.project_labels(world_pts, frame.segmentation, g.workspace.bounds, g.heightmap.resolution)
