@@ -49,7 +49,22 @@ def assert_same(decision: Any, want: dict[str, Any], where: str) -> None:
                                err_msg=where)
 
 
-def test_golden_replay_of_every_protocol_scene() -> None:
+def legacy_copy(folder: Path) -> Path:
+    """The shipped model re-exported with the metadata of models exported before rule lists existed: the decision
+    switches under `thresholds`, no `rules` (weights unchanged)."""
+    from pg_policy.models.model_io import export_qnet, load_qnet
+    from pg_policy.policies.model_files import SHIPPED_MODELS
+
+    for role in ("grasp", "push"):
+        net, meta = load_qnet(SHIPPED_MODELS / "lite" / f"{role}.pt")
+        del meta["rules"]
+        meta["thresholds"].update(grasp_filter="min3", grasp_check="jaw-walls", push_landing=True, edge_guard=True)
+        export_qnet(net, folder / f"{role}.pt", meta)
+    return folder
+
+
+@pytest.mark.parametrize("model", ["lite", "lite with legacy metadata"])
+def test_golden_replay_of_every_protocol_scene(model: str, tmp_path: Path) -> None:
     from pg_core.heightmap import Heightmap
     from pg_policy.policies.registry import make_policy
 
@@ -57,7 +72,7 @@ def test_golden_replay_of_every_protocol_scene() -> None:
     recs = records()
     assert len({r["scene"] for r in recs}) == 16
     with one_thread():
-        policy = make_policy("lite")
+        policy = make_policy("lite" if model == "lite" else str(legacy_copy(tmp_path)))
         for k, rec in enumerate(recs):
             if rec["step"] == 0:
                 policy.reset(rec["seed"])

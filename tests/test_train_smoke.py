@@ -160,18 +160,18 @@ def test_alternate_push_budget_forces_grasps_and_is_exported(run_dir, tmp_path, 
     assert not any(a["primitive"] == b["primitive"] == "push" and a["episode"] == b["episode"] for a, b in pairs)
     assert main(["export", "--run", str(out), "--out", str(tmp_path / "model")]) == 0
     _, meta = load_qnet(tmp_path / "model" / "grasp.pt")
-    assert meta["thresholds"] == {"grasp_q": 1e9, "push_budget": 1}
+    assert meta["thresholds"] == {"grasp_q": 1e9, "push_budget": 1} and meta["rules"] == ["failed_grasps:0.01"]
     assert torch.load(out / "alternate" / "last.pt", weights_only=False)["config"]["push_budget"] == "1"
     assert main(["export", "--run", str(out), "--out", str(tmp_path / "filtered"), "--grasp-filter", "MIN3"]) == 0
     _, meta = load_qnet(tmp_path / "filtered" / "push.pt")
-    assert meta["thresholds"] == {"grasp_q": 1e9, "push_budget": 1, "grasp_filter": "min3"}
+    assert meta["rules"] == ["grasp_filter:min3", "failed_grasps:0.01"]
     assert main(["export", "--run", str(out), "--out", str(tmp_path / "checked"), "--grasp-check", "jaw"]) == 0
     _, meta = load_qnet(tmp_path / "checked" / "grasp.pt")
-    assert meta["thresholds"] == {"grasp_q": 1e9, "push_budget": 1, "grasp_check": "jaw"}
+    assert meta["rules"] == ["failed_grasps:0.01", "grasp_check:jaw"]
     assert main(["export", "--run", str(out), "--out", str(tmp_path / "guarded"), "--edge-guard", "on",
                  "--push-landing", "off"]) == 0
     _, meta = load_qnet(tmp_path / "guarded" / "push.pt")
-    assert meta["thresholds"] == {"grasp_q": 1e9, "push_budget": 1, "edge_guard": True, "push_landing": False}
+    assert meta["rules"] == ["failed_grasps:0.01", "edge_guard"]
     assert main(["export", "--run", str(out), "--out", str(tmp_path / "bad"), "--grasp-filter", "max3"]) == 2
     assert "bad grasp filter" in capsys.readouterr().err and not (tmp_path / "bad").exists()
 

@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+from rule_testing import apply_rule
 
 from pg_core.geometry import load
 from pg_core.heightmap import Heightmap, world_to_pixel
@@ -40,9 +41,9 @@ def test_a_push_towards_the_edge_gives_way_to_the_best_push_that_keeps_the_targe
     hm, target = _target_at(0.0, -0.15)  # 4.4 cm inside the 3 cm margin; a full push along -y ends outside
     favourite, second = (MINUS_Y, *_cell(0.0, -0.12)), (PLUS_Y, *_cell(0.0, -0.18))
     guard = EdgeGuard(GEO)
-    out = guard.apply(_q(favourite, second), hm, np.ones((H, W), bool), target)
+    out, res = apply_rule(guard, _q(favourite, second), hm, target, np.ones((H, W), bool))
     assert np.unravel_index(np.argmax(out), out.shape) == second and out.max() == 1.0
-    assert out[favourite] == -np.inf and guard.rejected == 1
+    assert out[favourite] == -np.inf and res.rejected["push"] == 1
 
 
 def test_pushes_in_the_middle_or_along_the_edge_or_missing_the_target_are_kept():
@@ -52,8 +53,9 @@ def test_pushes_in_the_middle_or_along_the_edge_or_missing_the_target_are_kept()
                               ((0.0, -0.15), (MINUS_Y, *_cell(0.06, -0.12)))):  # misses the target
         hm, target = _target_at(x, y)
         q = _q(favourite, (PLUS_Y, 0, 0))
-        np.testing.assert_array_equal(guard.apply(q, hm, np.ones((H, W), bool), target), q)
-        assert guard.rejected == 0
+        out, res = apply_rule(guard, q, hm, target, np.ones((H, W), bool))
+        np.testing.assert_array_equal(out, q)
+        assert res.rejected["push"] == 0
 
 
 def _with_block(hm: Heightmap, x0: float, x1: float, y0: float, y1: float) -> Heightmap:
@@ -71,9 +73,9 @@ def test_a_push_into_a_neighbour_touching_the_target_carries_the_target_with_it(
     # along -y from y = +0.002 the fingers stop 0.007 short of the target but meet the neighbour after 0.06
     favourite, second = (MINUS_Y, *_cell(0.0, 0.002)), (PLUS_Y, *_cell(0.0, -0.18))
     guard = EdgeGuard(GEO)
-    assert guard.apply(_q(favourite, second), touching, np.ones((H, W), bool), target)[favourite] == -np.inf
+    assert apply_rule(guard, _q(favourite, second), touching, target, np.ones((H, W), bool))[0][favourite] == -np.inf
     q = _q(favourite, second)
-    np.testing.assert_array_equal(guard.apply(q, apart, np.ones((H, W), bool), target), q)
+    np.testing.assert_array_equal(apply_rule(guard, q, apart, target, np.ones((H, W), bool))[0], q)
     cluster = guard.cluster(touching.height, target)
     assert cluster[target].all() and cluster.sum() > target.sum()
     assert guard.cluster(apart.height, target).sum() == target.sum()
@@ -94,11 +96,11 @@ def test_bad_parameters_are_refused():
         EdgeGuard(GEO, gap_cells=-1)
 
 
-def test_the_policy_takes_the_guard_from_its_options_else_from_the_model_metadata():
-    from pg_policy.policies.registry import PolicyOptions, edge_guard_of
+def test_the_rule_list_takes_the_guard_from_the_options_else_from_the_model_metadata():
+    from pg_policy.decision.rules.registry import model_rules
+    from pg_policy.policies.options import resolved_rules
 
-    on = {"thresholds": {"edge_guard": True}}
-    assert edge_guard_of(PolicyOptions(), {}, GEO) is None
-    assert isinstance(edge_guard_of(PolicyOptions(), on, GEO), EdgeGuard)
-    assert edge_guard_of(PolicyOptions(edge_guard=False), on, GEO) is None
-    assert isinstance(edge_guard_of(PolicyOptions(edge_guard=True), {}, GEO), EdgeGuard)
+    on = {"thresholds": {"edge_guard": True}}  # a model exported before rule lists existed
+    assert "edge_guard" not in model_rules({}) and "edge_guard" in model_rules(on)
+    assert "edge_guard" not in resolved_rules(model_rules(on), {"edge_guard": "off"})
+    assert "edge_guard" in resolved_rules(model_rules({}), {"edge_guard": True})

@@ -40,3 +40,23 @@ def test_zero_radius_is_off_and_negative_is_refused():
     assert mem.suppress(q, hm) is q
     with pytest.raises(ValueError, match="radius"):
         FailedGrasps(16, radius_m=-0.01)
+
+
+def test_as_a_rule_it_remembers_a_grasp_the_trial_asked_past():
+    from types import SimpleNamespace
+
+    from rule_testing import context
+
+    hm = _hm()
+    rule = FailedGrasps.from_arg(load(), None)
+    assert rule.spec() == "failed_grasps:0.01"
+    ctx = context(hm, np.ones(hm.height.shape, bool))
+    rule.observe(SimpleNamespace(primitive="push", rotation=3, x=0.0, y=0.0), ctx, ctx)
+    assert rule.grasps == []  # a push is not a failed grasp
+    rule.observe(SimpleNamespace(primitive="grasp", rotation=3, x=0.0, y=0.0), ctx, ctx)
+    q = np.ones((16, *hm.height.shape))
+    assert np.isinf(rule.adjust(q, ctx)).any()
+    rule.reset()
+    assert rule.adjust(q, ctx) is q
+    with pytest.raises(ValueError, match="radius"):
+        FailedGrasps.from_arg(load(), "wide")

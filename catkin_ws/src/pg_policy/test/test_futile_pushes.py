@@ -31,13 +31,13 @@ def test_a_push_that_changed_nothing_near_the_target_is_remembered():
     target[100:110, 100:110] = True
     before = _hm(_block(slice(100, 110), slice(112, 125)))  # a neighbour right of the target
     mem = FutilePushes(16)
-    assert mem.observe(5, 0.0, 0.0, before, _hm(before.height.copy()), target)  # nothing moved
+    assert mem.observe_push(5, 0.0, 0.0, before, _hm(before.height.copy()), target)  # nothing moved
     assert mem.pushes == [(5, 0.0, 0.0)]
     moved = _hm(_block(slice(100, 110), slice(150, 163)))  # the neighbour was pushed 7.6 cm away
-    assert not mem.observe(6, 0.1, 0.1, before, moved, target) and len(mem.pushes) == 1
+    assert not mem.observe_push(6, 0.1, 0.1, before, moved, target) and len(mem.pushes) == 1
     far = _hm(before.height.copy())
     far.height[0:10, 0:10] = 0.05  # an object appeared far from the target
-    assert mem.observe(7, 0.0, 0.0, _hm(before.height.copy()), far, target)  # a change far away does not count
+    assert mem.observe_push(7, 0.0, 0.0, _hm(before.height.copy()), far, target)  # a change far away does not count
     mem.clear()
     assert mem.pushes == []
 

@@ -3,10 +3,11 @@ grasp/push choice."""
 
 import numpy as np
 import pytest
+from rule_testing import apply_rule
 
 from pg_core.geometry import load
 from pg_core.heightmap import Heightmap
-from pg_policy.decision.rules.grasp_check import JawGraspCheck, make_grasp_check
+from pg_policy.decision.rules.grasp_check import JawGraspCheck
 
 GEO = load()
 H = W = 224
@@ -26,6 +27,10 @@ def _scene(*neighbours: tuple[int, int]) -> tuple[Heightmap, np.ndarray]:
     return hm, target
 
 
+def make_grasp_check(variant: str, geometry: object) -> JawGraspCheck:
+    return JawGraspCheck.from_arg(geometry, variant)  # type: ignore[arg-type]
+
+
 def _q() -> np.ndarray:
     q = np.zeros((16, H, W))
     q[ALONG_X, C, C] = 1.0  # the learned favourite: close along x
@@ -36,29 +41,32 @@ def _q() -> np.ndarray:
 def test_a_blocked_favourite_gives_way_to_the_best_free_grasp_at_the_same_value():
     hm, target = _scene((0, 20))  # a neighbour 1 cm beyond the target's +x face: in the sweep of the x-closing jaw
     check = JawGraspCheck(GEO)
-    out = check.apply(_q(), hm, target, target)
+    out, res = apply_rule(check, _q(), hm, target, target)
     assert np.unravel_index(np.argmax(out), out.shape) == (ALONG_Y, C, C)
-    assert out.max() == 1.0 and out[ALONG_X, C, C] == -np.inf and check.rejected > 0
+    assert out.max() == 1.0 and out[ALONG_X, C, C] == -np.inf and res.rejected["grasp"] > 0
 
 
 def test_a_free_favourite_is_kept_unchanged():
     hm, target = _scene()
     check = JawGraspCheck(GEO)
     q = _q()
-    out = check.apply(q, hm, target, target)
+    out, res = apply_rule(check, q, hm, target, target)
     np.testing.assert_array_equal(out, q)
-    assert check.rejected == 0
+    assert res.rejected["grasp"] == 0
 
 
 def test_when_nothing_passes_the_learned_map_is_kept_and_the_check_says_so():
     hm, target = _scene((0, 20), (0, -20), (20, 0), (-20, 0))  # boxed in on all four sides
     q = _q()
     check = JawGraspCheck(GEO)
-    np.testing.assert_array_equal(check.apply(q, hm, target, target), q)
-    assert check.vetoed
+    out, res = apply_rule(check, q, hm, target, target)
+    np.testing.assert_array_equal(out, q)
+    assert res.vetoed["grasp"] and not res.push_instead  # "jaw" is not strict: it does not ask for a push
     free, _ = _scene()
-    check.apply(q, free, target, target)
-    assert not check.vetoed  # the flag describes the last call only
+    assert not apply_rule(check, q, free, target, target)[1].vetoed["grasp"]
+    strict = JawGraspCheck(GEO, strict=True)
+    res = apply_rule(strict, q, hm, target, target)[1]
+    assert res.push_instead and res.note == JawGraspCheck.veto_note
 
 
 def test_an_off_centre_cell_fails_even_when_the_jaw_would_be_free():
@@ -68,13 +76,13 @@ def test_an_off_centre_cell_fails_even_when_the_jaw_would_be_free():
     assert not check.passes(hm, target, ALONG_X, C, C + 5)  # 1 cm off the pad-centred line along x
 
 
-def test_names():
-    assert make_grasp_check(None, GEO) is None and make_grasp_check("none", GEO) is None
-    assert isinstance(make_grasp_check("jaw", GEO), JawGraspCheck) and not make_grasp_check("jaw", GEO).strict
+def test_variants_by_rule_argument():
+    assert not make_grasp_check("jaw", GEO).strict and not make_grasp_check("jaw", GEO).vetoes_grasp
     strict = make_grasp_check("jaw-strict", GEO)
-    assert strict.strict and strict.name == "jaw-strict" and not strict.walls
+    assert strict.strict and strict.vetoes_grasp and strict.spec() == "grasp_check:jaw-strict" and not strict.walls
     walls = make_grasp_check("jaw-walls", GEO)
-    assert walls.strict and walls.walls and walls.name == "jaw-walls"
+    assert walls.strict and walls.walls and walls.variant == "jaw-walls"
+    assert JawGraspCheck.from_arg(GEO, None).variant == "jaw-walls"  # "grasp_check" alone: the default variant
     with pytest.raises(ValueError, match="unknown grasp check"):
         make_grasp_check("fancy", GEO)
 
@@ -97,8 +105,8 @@ def test_walls_refuse_a_grasp_across_a_curved_profile_and_keep_the_one_along_the
     assert footprint.passes(hm, target, ALONG_X, C, C)  # the footprint alone accepts the squeeze across the curve
     assert not walls.passes(hm, target, ALONG_X, C, C)
     assert walls.passes(hm, target, ALONG_Y, C, C)  # the flat half-disc ends are walls
-    out = walls.apply(_q(), hm, target, target)
-    assert np.unravel_index(np.argmax(out), out.shape) == (ALONG_Y, C, C) and not walls.vetoed
+    out, res = apply_rule(walls, _q(), hm, target, target)
+    assert np.unravel_index(np.argmax(out), out.shape) == (ALONG_Y, C, C) and not res.vetoed["grasp"]
 
 
 def test_walls_accept_a_box_both_ways():

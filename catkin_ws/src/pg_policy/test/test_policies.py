@@ -11,15 +11,10 @@ import pytest
 from pg_core.geometry import load
 from pg_core.heightmap import Heightmap, world_to_pixel
 from pg_core.palette import PALETTE
-from pg_policy.policies.registry import (
-    REGISTRY,
-    HeuristicPolicy,
-    Policy,
-    PolicyOptions,
-    UnknownPolicyError,
-    make_policy,
-    resolve_models,
-)
+from pg_policy.policies.heuristic import HeuristicPolicy
+from pg_policy.policies.model_files import SHIPPED_MODELS, resolve_models
+from pg_policy.policies.policy import Policy, PolicyOptions, observed_target
+from pg_policy.policies.registry import UnknownPolicyError, make_policy, policies
 
 G = load()
 BOUNDS = G.workspace.bounds
@@ -48,8 +43,13 @@ def _scene(blocks: list[tuple[float, float, float, float, str]]) -> _Obs:
 CUBE = 0.045
 
 
+def learned(model_dir, overrides: dict) -> Policy:
+    """The learned policy of `model_dir` with option `overrides` (pg_policy.policies.options)."""
+    return make_policy("learned", PolicyOptions(models=(model_dir,), overrides=overrides))
+
+
 def test_registry_and_errors(tmp_path):
-    assert set(REGISTRY) == {"random", "heuristic", "grasp-only", "learned"}
+    assert {"random", "heuristic", "grasp-only", "learned"} <= set(policies())
     with pytest.raises(UnknownPolicyError, match="random, heuristic, grasp-only, learned"):
         make_policy("greedy")
     with pytest.raises(FileNotFoundError, match="needs a model"):
@@ -158,7 +158,7 @@ def test_learned_policies_from_exported_files(model_dir):
     assert q["grasp"].shape == q["push"].shape == (16, G.heightmap.rows, G.heightmap.cols)
     assert d.primitive == ("grasp" if d.grasp_q > 1.8 else "push")
     flip = 1e9 if d.grasp_q > 1.8 else -1e9
-    flipped = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=flip))
+    flipped = learned(model_dir, {"grasp_threshold": flip})
     assert flipped.act(obs).primitive != d.primitive
     g = make_policy("grasp-only", PolicyOptions(models=(model_dir / "grasp.pt",)))
     d = g.act(obs)
@@ -171,45 +171,43 @@ def test_learned_policies_from_exported_files(model_dir):
 
 def test_learned_push_budget_forces_a_grasp_after_that_many_pushes(model_dir):
     obs = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (-0.1, 0.1, CUBE, CUBE, "blue")])
-    pol = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=1e9, push_budget=2))
+    pol = learned(model_dir, {"grasp_threshold": 1e9, "push_budget": 2})
     assert [pol.act(obs).primitive for _ in range(4)] == ["push", "push", "grasp", "push"]
     pol.reset(0)
     assert pol.act(obs).primitive == "push" and pol.pushes_in_row == 1
-    none = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=1e9))  # metadata: no budget
+    none = learned(model_dir, {"grasp_threshold": 1e9})  # metadata: no budget
     assert none.push_budget == 0 and [none.act(obs).primitive for _ in range(3)] == ["push"] * 3
     with pytest.raises(ValueError, match="push budget"):
-        make_policy("learned", PolicyOptions(models=(model_dir,), push_budget=-1))
+        learned(model_dir, {"push_budget": -1})
 
 
 def test_learned_policy_does_not_repeat_a_failed_grasp(model_dir):
     obs = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (-0.1, 0.1, CUBE, CUBE, "blue")])
-    pol = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=-1e9))  # always grasps
+    pol = learned(model_dir, {"grasp_threshold": -1e9})  # always grasps
     first, second = pol.act(obs), pol.act(obs)  # asked again on the same scene: the first grasp failed
     assert first.primitive == second.primitive == "grasp"
     assert (first.rotation % 8, first.row, first.col) != (second.rotation % 8, second.row, second.col)
     pol.reset(0)  # a new trial forgets
-    assert pol.act(obs) == first and pol.failed.grasps == []
-    off = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=-1e9, failed_grasp_radius_m=0))
+    assert pol.act(obs) == first and pol.rules["failed_grasps"].grasps == []
+    off = learned(model_dir, {"grasp_threshold": -1e9, "failed_grasp_radius": 0})
     assert [(d.rotation, d.row, d.col) for d in (off.act(obs), off.act(obs))] == [(first.rotation, first.row,
                                                                                    first.col)] * 2
 
 
 def test_learned_policy_does_not_repeat_a_futile_push(model_dir):
     obs = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (0.08, 0.02, CUBE, CUBE, "blue")])
-    pol = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=1e9, futile_push_radius_m=0.01))
+    pol = learned(model_dir, {"grasp_threshold": 1e9, "futile_push_radius": 0.01})
     first, second = pol.act(obs), pol.act(obs)  # always pushes, on an unchanged scene
-    assert first.primitive == second.primitive == "push" and len(pol.futile.pushes) == 1
+    assert first.primitive == second.primitive == "push" and len(pol.rules["futile_pushes"].pushes) == 1
     assert (first.rotation, first.row, first.col) != (second.rotation, second.row, second.col)
     pol.reset(0)
-    assert pol.act(obs) == first and pol.futile.pushes == []
-    off = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=1e9))  # default: off
+    assert pol.act(obs) == first and pol.rules["futile_pushes"].pushes == []
+    off = learned(model_dir, {"grasp_threshold": 1e9})  # default: off
     assert [(d.rotation, d.row, d.col) for d in (off.act(obs), off.act(obs))] == [(first.rotation, first.row,
                                                                                    first.col)] * 2
 
 
 def test_shipped_models_resolve_by_folder_name():
-    from pg_policy.policies.registry import SHIPPED_MODELS
-
     pol = make_policy("lite")
     assert pol.name == "learned" and pol.model_paths[0] == SHIPPED_MODELS / "lite" / "grasp.pt"
     with pytest.raises(ValueError, match="unknown policy"):
@@ -227,24 +225,23 @@ def test_heuristic_uncovers_a_hidden_target():
 def test_learned_policies_apply_the_grasp_filter(model_dir):
     from pg_policy.decision.decision import masked_max
     from pg_policy.decision.rules.grasp_filter import GraspFilter
-    from pg_policy.policies.registry import observed_target
 
     obs = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (-0.1, 0.1, CUBE, CUBE, "blue")])
     raw = make_policy("learned", PolicyOptions(models=(model_dir,)))  # metadata has no filter: none
-    assert str(raw.grasp_filter) == "none"
+    assert "grasp_filter" not in raw.rules
     d_raw = raw.act(obs)
-    pol = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_filter="sym+min3"))
+    pol = learned(model_dir, {"grasp_filter": "sym+min3"})
     d = pol.act(obs)
     filtered = GraspFilter.parse("sym+min3").apply(raw.q_maps()["grasp"])  # same nets, same observation
     np.testing.assert_allclose(pol.q_maps()["grasp"], filtered)  # q_maps() shows the map the decision used
     np.testing.assert_array_equal(pol.q_maps()["push"], raw.q_maps()["push"])
     target = observed_target(obs) & obs.heightmap.valid
     assert d.grasp_q == pytest.approx(masked_max(filtered, target)) and d.grasp_q <= d_raw.grasp_q
-    go = make_policy("grasp-only", PolicyOptions(models=(model_dir / "grasp.pt",), grasp_filter="min5"))
+    go = make_policy("grasp-only", PolicyOptions(models=(model_dir / "grasp.pt",), overrides={"grasp_filter": "min5"}))
     g = go.act(obs)
     assert g.q == pytest.approx(masked_max(GraspFilter.parse("min5").apply(raw.q_maps()["grasp"]), target))
     with pytest.raises(ValueError, match="bad grasp filter"):
-        make_policy("learned", PolicyOptions(models=(model_dir,), grasp_filter="max3"))
+        learned(model_dir, {"grasp_filter": "max3"})
 
 
 def test_grasp_filter_default_comes_from_the_model_metadata(model_dir, tmp_path):
@@ -256,44 +253,43 @@ def test_grasp_filter_default_comes_from_the_model_metadata(model_dir, tmp_path)
         net, meta = load_qnet(model_dir / f"{role}.pt")
         meta["thresholds"] = {**meta.get("thresholds", {}), "grasp_filter": "min3"}
         export_qnet(net, tmp_path / f"{role}.pt", meta)
-    assert str(make_policy(str(tmp_path)).grasp_filter) == "min3"
-    assert str(make_policy(str(tmp_path), PolicyOptions(grasp_filter="none")).grasp_filter) == "none"
+    assert make_policy(str(tmp_path)).rules["grasp_filter"].spec() == "grasp_filter:min3"
+    assert "grasp_filter" not in make_policy(str(tmp_path), PolicyOptions(overrides={"grasp_filter": "none"})).rules
     shutil.rmtree(tmp_path)
 
 
 def test_grasp_check_comes_from_the_option_else_the_model_metadata(model_dir, tmp_path):
     from pg_policy.models.model_io import export_qnet, load_qnet
 
-    assert make_policy("learned", PolicyOptions(models=(model_dir,))).grasp_check is None  # no metadata entry
+    assert "grasp_check" not in make_policy("learned", PolicyOptions(models=(model_dir,))).rules  # no metadata entry
     for role in ("grasp", "push"):
         net, meta = load_qnet(model_dir / f"{role}.pt")
         meta["thresholds"] = {**meta.get("thresholds", {}), "grasp_check": "jaw"}
         export_qnet(net, tmp_path / f"{role}.pt", meta)
-    assert make_policy(str(tmp_path)).grasp_check.name == "jaw"
-    assert make_policy(str(tmp_path), PolicyOptions(grasp_check="none")).grasp_check is None
-    with pytest.raises(ValueError, match="unknown grasp check"):
-        make_policy(str(tmp_path), PolicyOptions(grasp_check="fancy"))
+    assert make_policy(str(tmp_path)).rules["grasp_check"].variant == "jaw"
+    assert "grasp_check" not in make_policy(str(tmp_path), PolicyOptions(overrides={"grasp_check": "none"})).rules
+    with pytest.raises(ValueError, match="grasp_check: expected one of"):
+        make_policy(str(tmp_path), PolicyOptions(overrides={"grasp_check": "fancy"}))
 
 
 def test_the_shipped_model_brings_its_test_time_rules():
     # docs/RESULTS.md reports `lite` with these; `make train` exports them (scripts/train_recipe.sh)
     lite = make_policy("lite")
-    assert str(lite.grasp_filter) == "min3" and lite.grasp_check.name == "jaw-walls" and lite.grasp_check.strict
+    assert lite.rules.specs() == ["grasp_filter:min3", "failed_grasps:0.01", "grasp_check:jaw-walls", "push_landing",
+                                  "edge_guard"]
     assert lite.threshold == pytest.approx(0.7) and lite.push_budget == 3
-    assert lite.grasp_check.walls and lite.edge_guard is not None and lite.push_landing is not None
-    assert make_policy("lite", PolicyOptions(grasp_check="none")).grasp_check is None
+    assert "grasp_check" not in make_policy("lite", PolicyOptions(overrides={"grasp_check": "none"})).rules
 
 
 def test_the_grasp_check_moves_a_blocked_grasp_and_keeps_the_decision(model_dir):
     # The check only re-ranks Q_g: same primitive and same compared value; the chosen grasp passes the jaw test.
     from pg_policy.decision.rules.grasp_check import JawGraspCheck
-    from pg_policy.policies.registry import observed_target
 
     obs = _scene([(0.0, 0.0, CUBE, CUBE, "green"), (0.06, 0.0, CUBE, CUBE, "blue"), (-0.06, 0.0, CUBE, CUBE, "red")])
-    plain = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=-1e9))
-    checked = make_policy("learned", PolicyOptions(models=(model_dir,), grasp_threshold=-1e9, grasp_check="jaw"))
+    plain = learned(model_dir, {"grasp_threshold": -1e9})
+    checked = learned(model_dir, {"grasp_threshold": -1e9, "grasp_check": "jaw"})
     # every cell is a candidate: the untrained net's best 200 may all close along x
-    checked.grasp_check = JawGraspCheck(checked.geometry, top_k=10**6)
+    checked.rules["grasp_check"].top_k = 10**6
     d0, d1 = plain.act(obs), checked.act(obs)
     assert d0.primitive == d1.primitive == "grasp" and d1.grasp_q == pytest.approx(d0.grasp_q)
     target = observed_target(obs)
@@ -308,10 +304,9 @@ def test_the_landing_guard_moves_a_push_off_the_objects_and_keeps_the_decision(m
 
     obs = _scene([(0.0, 0.0, CUBE, CUBE, "green"), (0.05, 0.0, CUBE, CUBE, "blue"), (-0.05, 0.0, CUBE, CUBE, "red"),
                   (0.0, 0.05, CUBE, CUBE, "yellow"), (0.0, -0.05, CUBE, CUBE, "orange")])
-    opts = {"models": (model_dir,), "grasp_threshold": 1e9}
-    plain = make_policy("learned", PolicyOptions(**opts, push_landing=False))
-    guarded = make_policy("learned", PolicyOptions(**opts, push_landing=True))
-    guarded.push_landing = LandingGuard(guarded.geometry, top_k=10**6)  # the untrained net's best 200 may all land
+    plain = learned(model_dir, {"grasp_threshold": 1e9})
+    guarded = learned(model_dir, {"grasp_threshold": 1e9, "push_landing": True})
+    guarded.rules["push_landing"].top_k = 10**6  # the untrained net's best 200 may all land
     d0, d1 = plain.act(obs), guarded.act(obs)
     assert d0.primitive == d1.primitive == "push" and d1.q == pytest.approx(d0.q)
     landing = LandingGuard(plain.geometry)
@@ -324,9 +319,10 @@ def test_the_strict_check_pushes_when_no_grasp_passes_until_the_push_budget_is_s
     # and grasps once the push budget (1) is spent.
     obs = _scene([(0.0, 0.0, CUBE, CUBE, "green"), (0.05, 0.0, CUBE, CUBE, "blue"), (-0.05, 0.0, CUBE, CUBE, "red"),
                   (0.0, 0.05, CUBE, CUBE, "yellow"), (0.0, -0.05, CUBE, CUBE, "orange")])
-    opts = {"models": (model_dir,), "grasp_threshold": -1e9, "push_budget": 1}
-    assert make_policy("learned", PolicyOptions(**opts, grasp_check="jaw")).act(obs).primitive == "grasp"
-    strict = make_policy("learned", PolicyOptions(**opts, grasp_check="jaw-strict"))
+    opts = {"grasp_threshold": -1e9, "push_budget": 1}
+    jaw = learned(model_dir, {**opts, "grasp_check": "jaw"})
+    assert jaw.act(obs).primitive == "grasp"
+    strict = learned(model_dir, {**opts, "grasp_check": "jaw-strict"})
     strict.reset(0)
     first = strict.act(obs)
     assert first.primitive == "push" and "jaw check" in strict.last_note

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from rule_testing import apply_rule
 
 from pg_core.geometry import load
 from pg_core.heightmap import Heightmap, world_to_pixel
@@ -46,12 +47,14 @@ def test_a_push_landing_on_an_object_gives_way_to_the_best_push_beside_it():
     on_top, beside = (PLUS_X, *_cell(0.02, 0.02)), (PLUS_X, *_cell(-0.007, 0.02))
     q = np.zeros((16, H, W))
     q[on_top], q[beside] = 1.0, 0.5
-    out = guard.apply(q, hm, np.ones((H, W), bool))
+    anywhere = np.ones((H, W), bool)
+    out, res = apply_rule(guard, q, hm, anywhere, anywhere)
     assert np.unravel_index(np.argmax(out), out.shape) == beside and out.max() == 1.0
-    assert out[on_top] == -np.inf and guard.rejected == 1
+    assert out[on_top] == -np.inf and res.rejected["push"] == 1
     q[on_top], q[beside] = 0.5, 1.0
-    np.testing.assert_array_equal(guard.apply(q, hm, np.ones((H, W), bool)), q)
-    assert guard.rejected == 0
+    out, res = apply_rule(guard, q, hm, anywhere, anywhere)
+    np.testing.assert_array_equal(out, q)
+    assert res.rejected["push"] == 0
 
 
 def test_bad_parameters_are_refused():
@@ -61,11 +64,11 @@ def test_bad_parameters_are_refused():
         LandingGuard(GEO, top_k=0)
 
 
-def test_the_policy_takes_the_guard_from_its_options_else_from_the_model_metadata():
-    from pg_policy.policies.registry import PolicyOptions, push_landing_of
+def test_the_rule_list_takes_the_guard_from_the_options_else_from_the_model_metadata():
+    from pg_policy.decision.rules.registry import model_rules
+    from pg_policy.policies.options import resolved_rules
 
-    on = {"thresholds": {"push_landing": True}}
-    assert push_landing_of(PolicyOptions(), {}, GEO) is None
-    assert isinstance(push_landing_of(PolicyOptions(), on, GEO), LandingGuard)
-    assert push_landing_of(PolicyOptions(push_landing=False), on, GEO) is None
-    assert isinstance(push_landing_of(PolicyOptions(push_landing=True), {}, GEO), LandingGuard)
+    on = {"thresholds": {"push_landing": True}}  # a model exported before rule lists existed
+    assert "push_landing" not in model_rules({}) and "push_landing" in model_rules(on)
+    assert "push_landing" not in resolved_rules(model_rules(on), {"push_landing": False})
+    assert "push_landing" in resolved_rules(model_rules({}), {"push_landing": "on"})

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from pg_core.heightmap import Heightmap
+from pg_policy.perception import scene_change
 from pg_policy.training import rewards
 
 RES = 0.002
@@ -41,9 +42,9 @@ def test_block_moved_away_is_a_change_and_frees_the_target():
     before = _hm((TARGET, BLOCK), (NEIGHBOUR, BLOCK))
     after = _hm((TARGET, BLOCK), (MOVED_AWAY, BLOCK))
     target = _mask(TARGET)
-    n = rewards.changed_cells(before, after, target)
+    n = scene_change.changed_cells(before, after, target)
     assert n == 22 * 4  # the neighbour's columns 123-126 lie within 5 cells (0.01 m) of the target's last (121)
-    assert rewards.scene_changed(before, after, target)
+    assert scene_change.scene_changed(before, after, target)
     occ_b = rewards.occupancy_ratio(before, target)
     occ_a = rewards.occupancy_ratio(after, target)
     assert occ_b > 0.15 and occ_a == 0.0
@@ -53,8 +54,8 @@ def test_block_moved_away_is_a_change_and_frees_the_target():
 def test_nothing_moved():
     before = _hm((TARGET, BLOCK), (NEIGHBOUR, BLOCK))
     target = _mask(TARGET)
-    assert not rewards.scene_changed(before, before, target)
-    assert rewards.changed_cells(before, before, target) == 0
+    assert not scene_change.scene_changed(before, before, target)
+    assert scene_change.changed_cells(before, before, target) == 0
     occ = rewards.occupancy_ratio(before, target)
     assert rewards.push_reward(0.4, 0.45, False, occ, occ) == -0.5
     assert rewards.push_reward(0.4, 1.5, False, occ, 0.0) == -0.5  # no change: bad push whatever Q_g says
@@ -64,36 +65,36 @@ def test_far_away_change_does_not_count():
     before = _hm((TARGET, BLOCK), (FAR, BLOCK))
     after = _hm((TARGET, BLOCK))
     target = _mask(TARGET)
-    assert not rewards.scene_changed(before, after, target)
-    assert not rewards.scene_changed(before, after, target, radius_m=0.05)
-    assert rewards.scene_changed(before, after, target, radius_m=0.2)  # 100 cells: the region reaches it
+    assert not scene_change.scene_changed(before, after, target)
+    assert not scene_change.scene_changed(before, after, target, radius_m=0.05)
+    assert scene_change.scene_changed(before, after, target, radius_m=0.2)  # 100 cells: the region reaches it
 
 
 def test_thresholds_of_the_change():
     target = _mask(TARGET)
     before = _hm((TARGET, BLOCK), (NEIGHBOUR, BLOCK))
     shallow = _hm((TARGET, BLOCK), (NEIGHBOUR, BLOCK - 0.009))  # lowered by 9 mm < 1 cm
-    assert not rewards.scene_changed(before, shallow, target)
-    assert rewards.scene_changed(before, shallow, target, depth_thresh=0.005)
+    assert not scene_change.scene_changed(before, shallow, target)
+    assert scene_change.scene_changed(before, shallow, target, depth_thresh=0.005)
     few = _hm((TARGET, BLOCK), (NEIGHBOUR, BLOCK), ((slice(100, 105), slice(123, 130)), 0.0))  # 35 cells freed
-    assert rewards.changed_cells(before, few, target) == 20 and not rewards.scene_changed(before, few, target)
-    assert rewards.scene_changed(before, few, target, min_cells=20)  # 5 rows x 4 columns in the region
+    assert scene_change.changed_cells(before, few, target) == 20 and not scene_change.scene_changed(before, few, target)
+    assert scene_change.scene_changed(before, few, target, min_cells=20)  # 5 rows x 4 columns in the region
     outlier = _hm((TARGET, BLOCK), (NEIGHBOUR, BLOCK + 0.5))  # e.g. the arm in view before: ignored
-    assert not rewards.scene_changed(outlier, before, target)
+    assert not scene_change.scene_changed(outlier, before, target)
 
 
 def test_increase_counts_only_when_asked():
     before = _hm((TARGET, BLOCK))
     after = _hm((TARGET, BLOCK), (NEIGHBOUR, BLOCK))  # a block pushed against the target
     target = _mask(TARGET)
-    assert not rewards.scene_changed(before, after, target)  # the authors' rule: heights must drop
-    assert rewards.scene_changed(before, after, target, decrease_only=False)
+    assert not scene_change.scene_changed(before, after, target)  # the authors' rule: heights must drop
+    assert scene_change.scene_changed(before, after, target, decrease_only=False)
 
 
 def test_target_moved_away_is_a_change():
     before = _hm((TARGET, BLOCK))
     after = _hm(((slice(100, 122), slice(150, 172)), BLOCK))
-    assert rewards.scene_changed(before, after, _mask(TARGET))
+    assert scene_change.scene_changed(before, after, _mask(TARGET))
 
 
 def test_invalid_cells_do_not_count():
@@ -101,7 +102,7 @@ def test_invalid_cells_do_not_count():
     valid = np.ones((N, N), bool)
     valid[NEIGHBOUR] = False
     after = _hm((TARGET, BLOCK), valid=valid)
-    assert not rewards.scene_changed(before, after, _mask(TARGET))
+    assert not scene_change.scene_changed(before, after, _mask(TARGET))
 
 
 def test_hull_covers_an_occluder_splitting_the_target():
@@ -109,10 +110,10 @@ def test_hull_covers_an_occluder_splitting_the_target():
     target[:, 109:113] = False  # a thin object lies across the target
     before = _hm((TARGET, BLOCK), ((slice(90, 132), slice(109, 113)), BLOCK + 0.02))
     after = _hm((TARGET, BLOCK))
-    hull = rewards.convex_hull_mask(target)
+    hull = scene_change.convex_hull_mask(target)
     assert hull[TARGET].all() and hull.sum() == 22 * 22
-    assert rewards.changed_cells(before, after, target) == 4 * (22 + 2 * 5)
-    assert rewards.changed_cells(before, after, target, hull=False) < 4 * (22 + 2 * 5)
+    assert scene_change.changed_cells(before, after, target) == 4 * (22 + 2 * 5)
+    assert scene_change.changed_cells(before, after, target, hull=False) < 4 * (22 + 2 * 5)
 
 
 def test_occupancy_ratio():
@@ -157,4 +158,4 @@ def test_shape_mismatch_raises():
     b = Heightmap(np.zeros((N, N - 1, 3), np.uint8), np.zeros((N, N - 1), np.float32), np.ones((N, N - 1), bool),
                   RES, BOUNDS)
     with pytest.raises(ValueError):
-        rewards.scene_changed(a, b, _mask(TARGET))
+        scene_change.scene_changed(a, b, _mask(TARGET))

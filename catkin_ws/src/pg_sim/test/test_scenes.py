@@ -4,8 +4,8 @@ import numpy as np
 import pybullet as p
 import pytest
 
-from pg_sim.scenes.random_scene import drop_scene, sample_drops
 from pg_sim.scenes.scene import find_scene, list_scenes, load_scene
+from pg_sim.world.random_scene import drop_scene, sample_drops
 from pg_sim.world.world import World
 
 SHIPPED = list_scenes()

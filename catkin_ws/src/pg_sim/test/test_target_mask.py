@@ -119,7 +119,7 @@ def world():
 @pytest.fixture(scope="module")
 def random_views(world):
     """seed -> (heightmap, label map, {body: rgb}, target body) of settled random-10 scenes, rendered once."""
-    from pg_sim.scenes.random_scene import drop_scene, sample_drops
+    from pg_sim.world.random_scene import drop_scene, sample_drops
 
     cache = {}
 

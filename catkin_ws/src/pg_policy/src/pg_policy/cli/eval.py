@@ -1,6 +1,5 @@
 """`pushgrasp eval`: run the evaluation protocol (pg_policy.evaluation.trials) for a policy on scenes and write the
-results
-(pg_policy.evaluation.report). Heavy modules (pybullet, torch) are imported inside the handler.
+results (pg_policy.evaluation.report). Heavy modules (pybullet, torch) are imported inside the handler.
 
 Errors (unknown policy, unknown scene, missing model file, a training seed) end the command with status 2 and one
 line on stderr (pg_policy.cli.main.main).
@@ -15,19 +14,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-from pg_policy.evaluation.trials import (
-    DEFAULT_JITTER_XY,
-    DEFAULT_JITTER_YAW,
-    DEFAULT_MAX_ACTIONS,
-    DEFAULT_MAX_FAILED_GRASPS,
-    DEFAULT_SEED,
-    MIN_EVAL_SEED,
-)
+from pg_policy.evaluation.trials import DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW, DEFAULT_SEED, MIN_EVAL_SEED
+from pg_policy.policies import options
+from pg_policy.target_loop.limits import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    from pg_policy.decision.rules.grasp_check import NAMES as CHECKS
-
     ev = sub.add_parser(
         "eval", help="evaluate a policy on scenes (completion, grasp success, motion number; DESIGN.md section 8)",
         description="Run trials of a policy and write results.json, results.md (C, GS, MN per scene) and results.png.",
@@ -57,33 +49,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ev.add_argument("--jitter-yaw", type=float, default=math.degrees(DEFAULT_JITTER_YAW),
                     help=f"fixed scenes: seeded rigid rotation of the whole scene, uniform +- deg (default "
                          f"{math.degrees(DEFAULT_JITTER_YAW)})")
-    ev.add_argument("--grasp-threshold", type=float, default=None,
-                    help="learned: override the grasp threshold of the model metadata")
-    ev.add_argument("--push-budget", type=int, default=None,
-                    help="learned: override the model metadata's push budget (grasp after this many pushes in a "
-                         "row; 0 = none)")
-    ev.add_argument("--failed-grasp-radius", type=float, default=None, metavar="M",
-                    help="learned: a failed grasp's closing axis is not retried within M metres in the same trial "
-                         "(default: pg_policy.decision.rules.failed_grasps.DEFAULT_RADIUS_M = 0.01; 0 = off)")
-    ev.add_argument("--futile-push-radius", type=float, default=None, metavar="M",
-                    help="learned: a push that changed nothing around the target is not retried in the same "
-                         "direction within M metres in the same trial (default: "
-                         "pg_policy.decision.rules.futile_pushes.DEFAULT_RADIUS_M = 0 = off; 0.01 = 1 cm)")
-    ev.add_argument("--grasp-filter", default=None, metavar="SPEC",
-                    help="grasp-only/learned: filter Q_g before the decision (pg_policy.decision.rules.grasp_filter: "
-                         "none, sym, "
-                         "min3, mean5, sym+min3, ...) (default: the model metadata's, else none)")
-    ev.add_argument("--grasp-check", default=None, choices=CHECKS,
-                    help="learned: re-rank Q_g's best cells by the heuristic's jaw-footprint test while the target "
-                         "is visible; jaw-strict: and push (within the push budget) when none passes; jaw-walls: "
-                         "jaw-strict that also demands walls where the pads touch "
-                         "(pg_policy.decision.rules.grasp_check; default: the model metadata's, else none)")
-    ev.add_argument("--edge-guard", default=None, choices=("on", "off"),
-                    help="learned: re-rank Q_p's best cells so that the push does not carry the target out of the "
-                         "workspace (pg_policy.decision.rules.edge_guard; default: the model metadata's, else off)")
-    ev.add_argument("--push-landing", default=None, choices=("on", "off"),
-                    help="learned: re-rank Q_p's best cells so that the closed fingers do not come down on top of "
-                         "an object (pg_policy.decision.rules.push_landing; default: the model metadata's, else off)")
+    options.add_arguments(ev)  # the declared policy options: --grasp-threshold, --rules, --grasp-check, ...
     ev.add_argument("--device", default="cpu", help="torch device of learned policies (default cpu)")
     ev.add_argument("--workers", type=int, default=1,
                     help="parallel simulator processes (default 1); results do not depend on it")
@@ -151,10 +117,12 @@ def _run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from pg_core.geometry import load as load_geometry
+    from pg_policy.decision.rules.pipeline import RulePipeline
     from pg_policy.evaluation.report import git_commit, write_results
     from pg_policy.evaluation.trials import EvalPlan, Limits, check_seed, expand_scenes
     from pg_policy.models.device import check_device
-    from pg_policy.policies.registry import PolicyOptions, make_policy
+    from pg_policy.policies.policy import PolicyOptions
+    from pg_policy.policies.registry import make_policy
 
     check_seed(args.seed, args.allow_train_seeds)
     check_device(args.device)
@@ -165,21 +133,16 @@ def _run(args: argparse.Namespace) -> int:
     scenes = expand_scenes(args.scenes)
     geometry = load_geometry()  # $PG_WORKSPACE_CONFIG or the package's; the simulator workers load the same file
     opts = PolicyOptions(models=tuple(args.model), seed=args.seed, device=args.device,
-                         grasp_threshold=args.grasp_threshold, push_budget=args.push_budget,
-                         failed_grasp_radius_m=args.failed_grasp_radius,
-                         futile_push_radius_m=args.futile_push_radius, grasp_filter=args.grasp_filter,
-                         grasp_check=args.grasp_check,
-                         edge_guard=None if args.edge_guard is None else args.edge_guard == "on",
-                         push_landing=None if args.push_landing is None else args.push_landing == "on")
+                         overrides=options.from_args(args))
     policy = make_policy(args.policy, opts)  # validates the name and the model files before any simulation
     paths = getattr(policy, "model_paths", None)
     if paths:  # workers and the record get the resolved files
         opts = replace(opts, models=tuple(paths))
     policy_name = getattr(policy, "name", args.policy)
-    grasp_filter = getattr(policy, "grasp_filter", None)  # as resolved (flag, else model metadata)
-    grasp_check = getattr(getattr(policy, "grasp_check", None), "name", "none")  # likewise
-    edge_guard = getattr(policy, "edge_guard", None) is not None  # likewise
-    push_landing = getattr(policy, "push_landing", None) is not None  # likewise
+    # what each worker makes: a model path became the learned/grasp-only policy with its files in opts.models
+    worker_policy = policy_name if paths else args.policy
+    rules = getattr(policy, "rules", None)  # the rule list as resolved (options, else the model's)
+    rules = rules if isinstance(rules, RulePipeline) else None
     del policy
     plan = EvalPlan(tuple(scenes), args.trials, args.seed, Limits(args.max_actions, args.max_failed_grasps),
                     args.jitter_xy, math.radians(args.jitter_yaw))
@@ -188,11 +151,8 @@ def _run(args: argparse.Namespace) -> int:
         "scenes": scenes, "trials": args.trials,
         "seed": args.seed, "trial_seeds": f"seed + i for trial i = 0..{args.trials - 1}",
         "max_actions": args.max_actions, "max_failed_grasps": args.max_failed_grasps,
-        "jitter_xy_m": args.jitter_xy, "jitter_yaw_deg": args.jitter_yaw, "grasp_threshold": args.grasp_threshold,
-        "push_budget": args.push_budget, "failed_grasp_radius_m": args.failed_grasp_radius,
-        "futile_push_radius_m": args.futile_push_radius, "grasp_check": grasp_check,
-        "edge_guard": edge_guard, "push_landing": push_landing,
-        "grasp_filter": None if grasp_filter is None else str(grasp_filter),
+        "jitter_xy_m": args.jitter_xy, "jitter_yaw_deg": args.jitter_yaw, "options": dict(opts.overrides),
+        "rules": None if rules is None else rules.specs(),
         "geometry_config": str(geometry.path), "primitives": asdict(geometry.primitives),
         "git_commit": git_commit(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "workers": args.workers,
         "host_cpus": os.cpu_count(),
@@ -209,7 +169,7 @@ def _run(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     try:
-        trials = run_trials(policy_name, opts, plan, args.workers, on_trial)
+        trials = run_trials(worker_policy, opts, plan, args.workers, on_trial)
     finally:
         bar.close()
     config["wall_s"] = round(time.perf_counter() - t0, 1)

@@ -9,14 +9,15 @@ from pathlib import Path
 
 import numpy as np
 
+from pg_policy.policies import options
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    from pg_policy.decision.rules.grasp_check import NAMES as CHECKS
-
     p = sub.add_parser("infer", help="render a policy's Q maps and decision over a scene to PNG (no action)")
-    p.add_argument("--model", default="lite",
+    p.add_argument("--policy", "--model", dest="model", default="lite",
                    help="shipped model folder name, model directory (grasp.pt + push.pt), a grasp .pt file, or a "
-                        "baseline name (heuristic, ...) (default: lite, the shipped model)")
+                        "registered policy or plugin (heuristic, ...; `pushgrasp policies`) (default: lite, the "
+                        "shipped model)")
     p.add_argument("--scene", required=True, help="scene name (see `pushgrasp scene list`), YAML file, or random-N")
     p.add_argument("--seed", type=int, default=1_000_000, help="seed for random-N scenes (default 1000000)")
     p.add_argument("--target", default=None, help="target colour (default: the scene's)")
@@ -24,12 +25,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--steps", type=int, default=0,
                    help="execute up to N decisions in the simulator (stops once the target is grasped), one PNG "
                         "each plus the scene after; default 0: draw the first decision, execute nothing")
-    p.add_argument("--grasp-filter", default=None, metavar="SPEC",
-                   help="learned models: filter of Q_g before the decision (none, min3, sym+min3, ...; default: the "
-                        "model's own); the grasp panel shows the filtered map")
-    p.add_argument("--grasp-check", default=None, choices=CHECKS,
-                   help="learned models: geometric check of the chosen grasp (rule grasp_check; default: the "
-                        "model's own); the grasp panel shows the map before the check")
+    options.add_arguments(p)  # the declared policy options; the grasp panel shows Q_g after the filter rules
     p.set_defaults(run=_run)
 
 
@@ -47,7 +43,7 @@ def draw(out: Path, obs, decision, q: dict[str, np.ndarray], title: str, grasp_f
     hm = obs.heightmap
     mask = target_mask(hm.color, hm.valid, obs.target)
     first = "colour heightmap" + (" + decision" if decision is not None else "")
-    after = f" after {grasp_filter}" if grasp_filter is not None and str(grasp_filter) != "none" else ""
+    after = f" after {grasp_filter}" if grasp_filter else ""
     panels = [(first, None)] + [(f"{k} Q{after if k == 'grasp' else ''} (max over rotations)", v)
                                 for k, v in q.items()]
     fig, axes = plt.subplots(1, len(panels), figsize=(5 * len(panels), 5), dpi=100, squeeze=False)
@@ -86,14 +82,17 @@ def _title(scene: str, obs, d) -> str:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from pg_policy.decision.rules.pipeline import RulePipeline
     from pg_policy.environment.sim_env import SimEnv
-    from pg_policy.policies.registry import PolicyOptions, make_policy
+    from pg_policy.policies.policy import PolicyOptions
+    from pg_policy.policies.registry import make_policy
 
     if args.steps < 0:
         raise ValueError("--steps must be >= 0")
-    policy = make_policy(args.model, PolicyOptions(seed=args.seed, grasp_filter=args.grasp_filter,
-                                                       grasp_check=args.grasp_check))
-    grasp_filter = getattr(policy, "grasp_filter", None)  # learned policies only: named in the Q_g panel
+    policy = make_policy(args.model, PolicyOptions(seed=args.seed, overrides=options.from_args(args)))
+    rules = getattr(policy, "rules", None)  # learned policies: the filter rules are named in the Q_g panel
+    grasp_filter = (", ".join(r.spec() for r in rules.rules if r.kind == "filter")
+                    if isinstance(rules, RulePipeline) else None)
     with SimEnv() as env:
         obs = env.reset(args.scene, seed=args.seed)
         if args.target:

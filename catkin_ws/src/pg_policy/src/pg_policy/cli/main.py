@@ -20,6 +20,7 @@ COMMANDS: dict[str, str] = {
     "replay": "pg_policy.cli.bag_replay:add_parser",
     "compare": "pg_policy.cli.compare:add_parser",
     "offline": "pg_policy.cli.offline:add_parser",
+    "policies": "pg_policy.cli.policies:add_parser",
 }
 
 

@@ -2,7 +2,7 @@
 
 Everything in `world`; heightmaps follow pg_core.heightmap. Decisions are executed by the real simulated arms
 (pg_sim.world.primitives); a refused decision (outside the workspace, unreachable) moves nothing and is reported.
-pg_sim is imported lazily so that the policy core stays importable on a robot without the simulator.
+This is the only place pg_policy reaches into the simulator (the layer above the policies: docs/ARCHITECTURE.md).
 """
 
 from __future__ import annotations
@@ -14,6 +14,12 @@ import numpy as np
 
 from pg_core.geometry import Geometry, load
 from pg_core.heightmap import Heightmap
+from pg_sim.scenes.colors import nearest_color_name
+from pg_sim.scenes.scene import SceneSpec, find_scene, load_scene
+from pg_sim.world.primitives import PrimitiveExecutor, PrimitiveRefused
+from pg_sim.world.random_scene import drop_scene, sample_drops
+from pg_sim.world.scene_source import RANDOM
+from pg_sim.world.world import World
 
 
 @dataclass(frozen=True)
@@ -43,9 +49,6 @@ class SimEnv:
     """One simulated cell. Not thread-safe; use one per process. Call close() or use `with`."""
 
     def __init__(self, geometry: Geometry | None = None, gui: bool = False) -> None:
-        from pg_sim.world.primitives import PrimitiveExecutor
-        from pg_sim.world.world import World
-
         self.geometry = geometry or load()
         self.world = World(self.geometry, gui=gui)
         self.executor = PrimitiveExecutor(self.world, remove_grasped=True)
@@ -63,9 +66,6 @@ class SimEnv:
     def reset(self, scene: Any, seed: int = 0) -> EnvObservation:
         """Load a scene: a SceneSpec, a shipped name/YAML path, "random-N" (N objects dropped from `seed` over
         +-0.11 m) or "dense-N" (N objects dropped over +-0.05 m: packed clutter for training pushes)."""
-        from pg_sim.scenes.random_scene import drop_scene, sample_drops
-        from pg_sim.scenes.scene import SceneSpec, find_scene, load_scene
-        from pg_sim.scenes.scene_source import RANDOM
 
         if isinstance(scene, SceneSpec):
             self.world.load_scene(scene)
@@ -87,7 +87,6 @@ class SimEnv:
 
     def retarget(self, color_name: str) -> bool:
         """Make the object of `color_name` the goal (relabelling); False if no single object has that colour."""
-        from pg_sim.scenes.colors import nearest_color_name
 
         hits = [b for b, spec in self.world.objects.items() if nearest_color_name(spec.color) == color_name]
         if len(hits) != 1:
@@ -98,7 +97,6 @@ class SimEnv:
 
     def object_colors(self) -> list[str]:
         """Palette names of the objects present (ground truth)."""
-        from pg_sim.scenes.colors import nearest_color_name
 
         return [nearest_color_name(spec.color) for spec in self.world.objects.values()]
 
@@ -107,8 +105,6 @@ class SimEnv:
 
     def step(self, primitive: str, x: float, y: float, z: float, yaw: float) -> StepResult:
         """Execute one primitive at TCP (x, y, z) m, yaw rad in `world`."""
-        from pg_sim.scenes.colors import nearest_color_name
-        from pg_sim.world.primitives import PrimitiveRefused
 
         action = {"grasp": self.executor.grasp, "push": self.executor.push}
         if primitive not in action:

@@ -33,7 +33,11 @@ from pg_core.geometry import PrimitiveSpec, load
 from pg_core.heightmap import Heightmap
 from pg_core.target_mask import radius_cells
 from pg_policy.decision.decision import PUSH_RADIUS_M, Decision, decide, grasp_region, masked_max
+from pg_policy.models.device import check_device
 from pg_policy.models.inference import PolicyNets, Window, target_window
+from pg_policy.models.nets.registry import BACKBONES
+from pg_sim.scenes.scene import list_scenes
+from pg_sim.world.scene_source import make_world_with_scene
 
 VARIANTS = ("lite", "lite-os8", "densenet121")
 APPROX_MARGIN_M = 0.1  # window context for backbones without an exact margin
@@ -54,8 +58,6 @@ def scene_cases(scenes: Sequence[str] | None = None) -> list[Case]:
     """Settled shipped scenes (default: all of `pg_sim.scenes.scene.list_scenes()`) -> cases with ground-truth masks.
 
     Raises ValueError for an unknown scene or a scene whose target is not visible in the heightmap."""
-    from pg_sim.scenes.scene import list_scenes
-    from pg_sim.scenes.scene_source import make_world_with_scene
 
     cases = []
     for name in scenes or list_scenes():
@@ -264,14 +266,12 @@ def run(variants: Sequence[str] = VARIANTS, runs: int = 20, threads: int = 2, sc
     """The whole benchmark; sets torch.set_num_threads(threads). cases_file: heightmaps from `save_cases` instead of
     the simulator's shipped scenes. device "cuda[:N]": fp32 convolutions and matmuls (TF32 off), so that every mode
     computes the same numbers. Raises ValueError for unknown variants/modes or an unavailable device."""
-    from pg_policy.models.nets.registry import BACKBONES
 
     bad = [v for v in variants if v not in BACKBONES]
     if bad:
         raise ValueError(f"unknown variants {bad}; known: {sorted(BACKBONES)}")
     if runs < 1 or threads < 1:
         raise ValueError("runs and threads must be >= 1")
-    from pg_policy.models.device import check_device
 
     dev = check_device(device)
     if dev.type == "cuda":

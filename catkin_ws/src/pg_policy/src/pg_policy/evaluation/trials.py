@@ -41,10 +41,12 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from pg_policy.target_loop.limits import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
+from pg_sim.scenes.scene import find_scene, list_scenes, load_scene
+from pg_sim.world.scene_source import GENERATED
+
 MIN_EVAL_SEED = 1_000_000
 DEFAULT_SEED = MIN_EVAL_SEED
-DEFAULT_MAX_ACTIONS = 30
-DEFAULT_MAX_FAILED_GRASPS = 5
 DEFAULT_JITTER_XY = 0.01  # m
 DEFAULT_JITTER_YAW = math.radians(11.25)  # half of one of the 16 rotation steps
 FAMILIES = ("packed", "household")
@@ -221,8 +223,6 @@ def expand_scenes(items: Sequence[str]) -> list[str]:
     and "dense-N" (generated from the trial seed) stay, anything else must be a shipped scene name or a YAML file.
     Raises SceneError (ValueError) for an unknown one (with close matches) and ValueError for an empty family or
     list."""
-    from pg_sim.scenes.scene import find_scene, list_scenes
-    from pg_sim.scenes.scene_source import GENERATED
 
     out: list[str] = []
     for item in items:
@@ -268,8 +268,6 @@ def jitter_scene(scene: Any, rng: np.random.Generator, xy: float, yaw: float) ->
 def trial_scene(name: str, seed: int, jitter_xy: float, jitter_yaw: float) -> Any:
     """What env.reset gets for trial `seed` of scene `name`: "random-N" / "dense-N" unchanged, else the loaded and
     jittered SceneSpec (jitter drawn from `seed`)."""
-    from pg_sim.scenes.scene import load_scene
-    from pg_sim.scenes.scene_source import GENERATED
 
     if GENERATED.match(name):
         return name

@@ -18,6 +18,8 @@ import torch
 from torch import Tensor, nn
 
 from pg_core.heightmap import Heightmap
+from pg_policy.models.model_io import ModelLoadError, load_qnet
+from pg_policy.models.nets.qnet import QNetConfig, build_qnet
 
 ROLES = ("grasp", "push")
 # QNet methods and attributes that `PolicyNets` uses: kept when a net is frozen
@@ -98,7 +100,6 @@ class PolicyNets:
         """Load two exported TorchScript files (see `pg_policy.models.model_io`); raises ModelLoadError (a ValueError)
         for a
         bad file or a file whose metadata names another role or another heightmap geometry."""
-        from pg_policy.models.model_io import ModelLoadError, load_qnet
 
         nets, meta = {}, {}
         for role, path in (("grasp", grasp_path), ("push", push_path)):
@@ -111,7 +112,6 @@ class PolicyNets:
     def random(cls, backbone: str = "lite", goal: str = "mask", rotations: int = 16, seed: int = 0,
                optimize: bool = False, device: str | torch.device = "cpu") -> PolicyNets:
         """Untrained nets with a reproducible initialisation (benchmarks, tests)."""
-        from pg_policy.models.nets.qnet import QNetConfig, build_qnet
 
         cfg = QNetConfig(backbone=backbone, goal=goal, rotations=rotations)
         return cls(build_qnet(cfg, seed=seed), build_qnet(cfg, seed=seed + 1), device=device, optimize=optimize)

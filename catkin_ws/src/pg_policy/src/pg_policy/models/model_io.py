@@ -21,6 +21,7 @@ from torch import nn
 
 from pg_core.geometry import Geometry
 from pg_core.geometry import load as load_geometry
+from pg_core.palette import PALETTE
 
 METADATA_NAME = "pushgrasp.json"
 FORMAT_VERSION = 1
@@ -45,10 +46,6 @@ def geometry_metadata(geometry: Geometry) -> dict[str, Any]:
 
 
 def _default_colors() -> dict[str, list[int]]:
-    try:
-        from pg_core.palette import PALETTE
-    except ImportError:  # the colour table module is optional for exporting
-        return {}
     return {name: [int(v) for v in rgb] for name, rgb in PALETTE.items()}
 
 

@@ -40,6 +40,9 @@ import numpy as np
 from pg_core.action_geometry import grasp_z, push_z
 from pg_core.geometry import Geometry
 from pg_core.heightmap import Heightmap, world_to_pixel
+from pg_core.palette import PALETTE
+from pg_core.target_mask import target_mask
+from pg_policy.decision.jaw_fit import CellWindow, JawFit, JawParams, dilate, mask_centre
 
 OFFSETS = (0.0, -0.006, 0.006, -0.012, 0.012, -0.018, 0.018, -0.024, 0.024, -0.03, 0.03)  # grasp line shifts (m)
 
@@ -78,33 +81,6 @@ class Action:
     why: str
 
 
-class _Cells:
-    """World (x, y) of the cells of a heightmap window and their heights."""
-
-    def __init__(self, hm: Heightmap, centre: np.ndarray | None, half: float) -> None:
-        res, b = hm.resolution, hm.bounds
-        rows, cols = hm.height.shape
-        if centre is None:
-            r0, r1, c0, c1 = 0, rows, 0, cols
-        else:
-            rc, cc = world_to_pixel(float(centre[0]), float(centre[1]), b, res)
-            k = int(math.ceil(half / res))
-            r0, r1, c0, c1 = max(rc - k, 0), min(rc + k + 1, rows), max(cc - k, 0), min(cc + k + 1, cols)
-        rr, cc_ = np.mgrid[r0:r1, c0:c1]
-        self.slice = (slice(r0, r1), slice(c0, c1))
-        self.xy = np.stack([b[0, 0] + (cc_ + 0.5) * res, b[1, 0] + (rr + 0.5) * res], axis=-1).reshape(-1, 2)
-        self.h = hm.height[self.slice].reshape(-1)
-
-
-def _dilate(mask: np.ndarray, cells: int) -> np.ndarray:
-    import cv2
-
-    if cells <= 0:
-        return mask
-    k = np.ones((2 * cells + 1, 2 * cells + 1), np.uint8)
-    return cv2.dilate(mask.astype(np.uint8), k).astype(bool)
-
-
 class HeuristicPlanner:
     """The rule of the module docstring for one geometry; stateless apart from what `plan` is given."""
 
@@ -112,9 +88,10 @@ class HeuristicPlanner:
         self.g = geometry
         self.p = params or HeuristicParams()
         self.rotations = geometry.heightmap.rotations
-        gr = geometry.gripper
-        self.half_open = gr.max_opening / 2
-        self.finger_t, self.finger_w = gr.finger_size[0], gr.finger_size[1]
+        p = self.p
+        self.jaw = JawFit(geometry, JawParams(p.margin, p.obstacle_tol, p.occupied, p.window, p.min_band_cells,
+                                              p.centre_line, p.chord_tol))
+        self.half_open, self.finger_t, self.finger_w = self.jaw.half_open, self.jaw.finger_t, self.jaw.finger_w
 
     # -- helpers -----------------------------------------------------------------------------------------------
     def yaw(self, r: int) -> float:
@@ -133,42 +110,10 @@ class HeuristicPlanner:
     # -- grasp ---------------------------------------------------------------------------------------------------
     def grasp_fit(self, t_xy: np.ndarray, o_xy: np.ndarray, o_h: np.ndarray, centre: np.ndarray, yaw: float,
                   z_grasp: float) -> tuple[float, np.ndarray, float] | None:
-        """Clearance (m, >= 0 means free), the pad-centred grasp point and the target's width between the pads (m) of
-        a grasp at `yaw` through `centre`.
+        """The jaw-footprint test (pg_policy.decision.jaw_fit.JawFit.grasp_fit) with this planner's parameters."""
+        return self.jaw.grasp_fit(t_xy, o_xy, o_h, centre, yaw, z_grasp)
 
-        t_xy: (M, 2) target cells; o_xy, o_h: (K, 2) cells of other objects and their heights. None when the target
-        does not fit between the pads or too few target cells lie between them.
-        """
-        p = self.p
-        u = np.array([math.cos(yaw), math.sin(yaw)])
-        v = np.array([-u[1], u[0]])
-        rel = t_xy - centre
-        t = rel @ v
-        band = np.abs(t) <= self.finger_w / 2 + p.margin
-        if int(band.sum()) < p.min_band_cells or t[band].min() > -p.centre_line or t[band].max() < p.centre_line:
-            return None  # the central strip of the pads is not all on the target
-        s = rel[band] @ u
-        lo, hi = float(s.min()), float(s.max())
-        if hi - lo > 2 * (self.half_open - p.margin):
-            return None
-        centre_line = np.abs(t) <= p.centre_line
-        if not centre_line.any():
-            return None
-        sc = rel[centre_line] @ u
-        if float(sc.max() - sc.min()) < (hi - lo) - p.chord_tol:
-            return None  # the pads would first touch the target off the closing line: it squirts out (round, wedge)
-        c2 = centre + 0.5 * (lo + hi) * u
-        reach = self.half_open + self.finger_t + p.margin  # outer face of an open finger + margin
-        block = o_h > z_grasp - p.obstacle_tol
-        if not block.any():
-            return 1.0, c2, hi - lo
-        orel = o_xy[block] - c2
-        ds = np.maximum(np.abs(orel @ u) - reach, 0.0)
-        dt = np.maximum(np.abs(orel @ v) - (self.finger_w / 2 + p.margin), 0.0)
-        dist = np.hypot(ds, dt)
-        return (float(dist.min()) if (dist > 0).all() else -1.0), c2, hi - lo
-
-    def best_grasp(self, hm: Heightmap, obj: np.ndarray, others: np.ndarray, cells: _Cells,
+    def best_grasp(self, hm: Heightmap, obj: np.ndarray, others: np.ndarray, cells: CellWindow,
                    tabu: list[tuple[int, float, float]], rotations: list[int] | None = None) -> Action | None:
         """Best free grasp of the object cells `obj` ((H, W) bool) among `others` ((H, W) bool), or None."""
         o = obj[cells.slice].reshape(-1)
@@ -206,11 +151,11 @@ class HeuristicPlanner:
         return best
 
     # -- push ----------------------------------------------------------------------------------------------------
-    def best_push(self, hm: Heightmap, target: np.ndarray, cells: _Cells) -> Action | None:
+    def best_push(self, hm: Heightmap, target: np.ndarray, cells: CellWindow) -> Action | None:
         """Best push of the target out of the clutter (module docstring, rule 2), or None if no start is free."""
         p, prims = self.p, self.g.primitives
         t = target[cells.slice].reshape(-1)
-        occ = (cells.h > p.occupied) & ~_dilate(target, 1)[cells.slice].reshape(-1)
+        occ = (cells.h > p.occupied) & ~dilate(target, 1)[cells.slice].reshape(-1)
         t_xy, o_xy, o_h = cells.xy[t], cells.xy[occ], cells.h[occ]
         c = t_xy.mean(axis=0)
         a = self.finger_t  # closed fingers: 2 x thickness along d, finger width along v
@@ -265,8 +210,6 @@ class HeuristicPlanner:
         """(colour name, (H, W) bool cells, centre (x, y) m) of each single-colour object region on the table."""
         import cv2
 
-        from pg_core.palette import PALETTE
-        from pg_core.target_mask import target_mask
 
         occupied = hm.height > self.p.occupied
         if exclude is not None:
@@ -280,19 +223,13 @@ class HeuristicPlanner:
             for i in range(1, n):
                 blob = labels == i
                 if blob.sum() >= self.p.min_target_cells:
-                    out.append((name, blob, self._centre(hm, blob)))
+                    out.append((name, blob, mask_centre(hm, blob)))
         return out
-
-    @staticmethod
-    def _centre(hm: Heightmap, mask: np.ndarray) -> np.ndarray:
-        rows, cols = np.nonzero(mask)
-        return np.array([hm.bounds[0, 0] + (cols.mean() + 0.5) * hm.resolution,
-                         hm.bounds[1, 0] + (rows.mean() + 0.5) * hm.resolution])
 
     def _grasp_of(self, hm: Heightmap, blob: np.ndarray, centre: np.ndarray,
                   tabu: list[tuple[int, float, float]]) -> Action | None:
         occupied = hm.height > self.p.occupied
-        return self.best_grasp(hm, blob, occupied & ~_dilate(blob, 1), _Cells(hm, centre, self.p.window), tabu)
+        return self.best_grasp(hm, blob, occupied & ~dilate(blob, 1), CellWindow(hm, centre, self.p.window), tabu)
 
     def uncover(self, hm: Heightmap, last_seen: np.ndarray | None,
                 tabu: list[tuple[int, float, float]]) -> Action | None:
@@ -318,11 +255,11 @@ class HeuristicPlanner:
         hull = np.zeros(target.shape, np.uint8)
         cv2.fillConvexPoly(hull, cv2.convexHull(pts), 1)
         top = float(np.median(hm.height[target]))
-        over = hull.astype(bool) & ~_dilate(target, 1) & (hm.height > top + self.p.on_top)
+        over = hull.astype(bool) & ~dilate(target, 1) & (hm.height > top + self.p.on_top)
         if over.sum() < self.p.min_target_cells:
             return None
         best: Action | None = None
-        for name, blob, centre in self.blobs(hm, exclude=_dilate(target, 1)):
+        for name, blob, centre in self.blobs(hm, exclude=dilate(target, 1)):
             cover = int((blob & over).sum())
             if cover < self.p.min_target_cells:
                 continue
@@ -331,16 +268,16 @@ class HeuristicPlanner:
                 best = Action("grasp", act.rotation, act.row, act.col, cover, f"remove {name} object on the target")
         return best
 
-    def remove_blocker(self, hm: Heightmap, target: np.ndarray, cells: _Cells,
+    def remove_blocker(self, hm: Heightmap, target: np.ndarray, cells: CellWindow,
                        tabu: list[tuple[int, float, float]]) -> Action | None:
         """Grasp (and so remove) the neighbour whose absence frees a grasp of the target; None if there is none."""
         occupied = hm.height > self.p.occupied
-        near = _dilate(target, int(round(0.02 / hm.resolution)))
+        near = dilate(target, int(round(0.02 / hm.resolution)))
         best: Action | None = None
-        for name, blob, centre in self.blobs(hm, exclude=_dilate(target, 1)):
+        for name, blob, centre in self.blobs(hm, exclude=dilate(target, 1)):
             if not (blob & near).any():
                 continue
-            after = self.best_grasp(hm, target, occupied & ~_dilate(target, 1) & ~_dilate(blob, 1), cells, [])
+            after = self.best_grasp(hm, target, occupied & ~dilate(target, 1) & ~dilate(blob, 1), cells, [])
             if after is None:
                 continue
             act = self._grasp_of(hm, blob, centre, tabu)
@@ -373,9 +310,9 @@ class HeuristicPlanner:
         cells, others = self.around(hm, target)
         return self.best_grasp(hm, target, others, cells, [])
 
-    def around(self, hm: Heightmap, target: np.ndarray) -> tuple[_Cells, np.ndarray]:
+    def around(self, hm: Heightmap, target: np.ndarray) -> tuple[CellWindow, np.ndarray]:
         """The examined window around a visible target and the (H, W) bool cells of other objects."""
-        return _Cells(hm, self._centre(hm, target), self.p.window), (hm.height > self.p.occupied) & ~_dilate(target, 1)
+        return self.jaw.around(hm, target)
 
     def guide(self, primitive: str, hm: Heightmap, target: np.ndarray) -> Action | None:
         """`push_of` or `grasp_of` by primitive name."""

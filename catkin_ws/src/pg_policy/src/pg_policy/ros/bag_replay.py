@@ -15,7 +15,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from pg_conversions.heightmap_msg import heightmap_from_msg
 from pg_policy.evaluation.trials import Stat, TrialRecord, scene_metrics
+from pg_policy.ros.convert import primitive_name
 from pg_policy.target_loop.target_loop import PolicyObservation
 
 DECISIONS = "/pg/decisions"
@@ -65,7 +67,6 @@ def read_bag(path: str | Path) -> tuple[list[Any], dict[float, Any]]:
 
 def episode_records(decisions: Iterable[Any]) -> dict[int, TrialRecord]:
     """Per-episode trial records from executed decisions (DESIGN.md section 8 counting)."""
-    from pg_policy.ros.convert import primitive_name
 
     out: dict[int, TrialRecord] = {}
     for d in decisions:
@@ -90,8 +91,6 @@ def replay(path: str | Path, make_policy: Callable[[str], Any] | None = None,
            policy: str | None = None) -> Replay:
     """Metrics of the bag and, when `make_policy` is given, agreement of `policy` (default: the recorded one)
     re-run on the recorded heightmaps."""
-    from pg_conversions.heightmap_msg import heightmap_from_msg
-    from pg_policy.ros.convert import primitive_name
 
     decisions, heightmaps = read_bag(path)
     out = Replay(episodes=episode_records(decisions), decisions=len(decisions))

@@ -13,6 +13,7 @@ from typing import Any
 
 import cv2
 import numpy as np
+from pg_msgs.msg import Decision as DecisionMsg
 
 from pg_core.heightmap import Heightmap
 
@@ -24,7 +25,6 @@ def decision_msg(rec: Any, stamp: Any) -> Any:
     """pg_policy.target_loop.target_loop.ActionRecord -> pg_msgs/Decision stamped `stamp` (rospy.Time)."""
     import rospy
     from geometry_msgs.msg import Point
-    from pg_msgs.msg import Decision as DecisionMsg
 
     d, ex = rec.decision, rec.execution
     msg = DecisionMsg()

@@ -3,12 +3,10 @@ the action /pg/grasp_target_action (pg_msgs/GraspTargetAction: feedback per acti
 while a call runs is rejected "busy"); /pg/decisions, /pg/q_map and /pg/markers out. The loop itself is
 pg_policy.target_loop.target_loop.TargetLoop.
 
-Private parameters (defaults): ~policy ("lite", the shipped model; a registry name, a shipped model folder name, a
-model directory or a TorchScript file), ~grasp_threshold (from the model), ~grasp_filter (from the model; a
-pg_policy.decision.rules.grasp_filter spec such as "none" or "min3"), ~grasp_check (from the model; "none", "jaw",
-"jaw-strict" or
-"jaw-walls": pg_policy.decision.rules.grasp_check), ~edge_guard and ~push_landing (from the model; bool: the push guards
-pg_policy.decision.rules.edge_guard and pg_policy.decision.rules.push_landing), ~heightmap_timeout (5.0 wall s),
+Private parameters (defaults): ~policy ("lite", the shipped model; a registered policy or plugin, a shipped model
+folder name, a model directory or a TorchScript file); the declared policy options of pg_policy.policies.options
+(~grasp_threshold, ~push_budget, ~rules and each rule's switch such as ~grasp_check, ~edge_guard; unset or "auto":
+the model's own), ~heightmap_timeout (5.0 wall s),
 ~primitive_timeout (60.0 s per primitive), ~max_actions (30), ~max_failed_grasps (5), ~call_timeout (600 wall s),
 ~execute_service ("/pg/execute_primitive"), ~dry_run (false: grasp_target refused; every new heightmap is decided
 on and published on /pg/dry_run/decisions).
@@ -29,6 +27,9 @@ from sensor_msgs.msg import Image
 from visualization_msgs.msg import MarkerArray
 
 from pg_conversions.heightmap_msg import image_msg
+from pg_policy.policies import options
+from pg_policy.policies.policy import PolicyOptions
+from pg_policy.policies.registry import make_policy
 from pg_policy.ros import convert
 from pg_policy.ros.loop_io import ServiceExecutor, TopicHeightmapSource
 from pg_policy.target_loop.target_loop import LoopError, LoopLimits, NoHeightmap, StampedHeightmap, TargetLoop, mask_of
@@ -38,16 +39,8 @@ BUSY = "busy: another grasp_target call is running"
 
 class PolicyNode:
     def __init__(self) -> None:
-        from pg_policy.policies.registry import PolicyOptions, make_policy
-
         self.policy_name = str(rospy.get_param("~policy", "lite"))
-        threshold = rospy.get_param("~grasp_threshold", None)
-        grasp_filter = rospy.get_param("~grasp_filter", None)
-        grasp_check = rospy.get_param("~grasp_check", None)
-        guards = {k: None if (v := rospy.get_param(f"~{k}", None)) is None else bool(v)
-                  for k in ("edge_guard", "push_landing")}
-        policy = make_policy(self.policy_name, PolicyOptions(grasp_threshold=threshold, grasp_filter=grasp_filter,
-                                                             grasp_check=grasp_check, **guards))
+        policy = make_policy(self.policy_name, PolicyOptions(overrides=options.from_params(rospy.get_param)))
         self.limits = LoopLimits(int(rospy.get_param("~max_actions", 30)),
                                  int(rospy.get_param("~max_failed_grasps", 5)),
                                  float(rospy.get_param("~call_timeout", 600.0)))
@@ -184,7 +177,7 @@ def main() -> None:
     rospy.init_node("pg_policy")
     try:
         node = PolicyNode()
-    except (FileNotFoundError, ValueError, RuntimeError) as exc:
+    except (FileNotFoundError, ValueError, RuntimeError, TypeError, ImportError, AttributeError) as exc:
         rospy.logfatal("policy node cannot start: %s", exc)
         sys.exit(1)
     if node.dry_run:

@@ -29,7 +29,7 @@ from pg_core.heightmap import Heightmap
 from pg_core.palette import normalize_name
 from pg_core.target_mask import MIN_VISIBLE_CELLS, hsv_window, target_mask
 from pg_policy.decision.decision import Decision
-from pg_policy.evaluation.trials import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
+from pg_policy.target_loop.limits import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
 
 TARGET_GONE_FRACTION = 0.2
 MAX_FAILED_PRIMITIVES = 3  # refused/aborted primitives in a row that end a call (a deterministic policy repeats)

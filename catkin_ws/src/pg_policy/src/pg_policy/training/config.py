@@ -6,6 +6,9 @@ import argparse
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 
+from pg_policy.models.device import check_device
+from pg_sim.world.scene_source import GENERATED  # the simulator's own name pattern imported at run time only
+
 TRAIN_SEED_LIMIT = 1_000_000  # training seeds are < this; evaluation seeds are >= this (disjoint)
 
 
@@ -73,7 +76,6 @@ def from_args(args: argparse.Namespace) -> TrainConfig:
     if not 0 <= cfg.seed < TRAIN_SEED_LIMIT:
         raise ValueError(f"training seed {cfg.seed} must be in [0, {TRAIN_SEED_LIMIT}) (evaluation seeds are above)")
     scene_list(cfg.scene)
-    from pg_policy.models.device import check_device
 
     check_device(cfg.device)
     return cfg
@@ -82,7 +84,6 @@ def from_args(args: argparse.Namespace) -> TrainConfig:
 def scene_list(spec: str) -> list[str]:
     """The training scene families of `spec` ("dense-8" or "dense-8,random-15"), in episode order.
     Raises ValueError on an empty list or an entry that is not random-N / dense-N."""
-    from pg_sim.scenes.scene_source import GENERATED  # the simulator's own name pattern (imported at run time only)
 
     scenes = [s.strip() for s in spec.split(",")]
     bad = [s for s in scenes if not (m := GENERATED.match(s)) or int(m.group(2)) < 1]

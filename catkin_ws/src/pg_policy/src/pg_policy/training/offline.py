@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pg_policy.models import qtensor
+from pg_policy.training import qtensor
 from pg_policy.training.experience_replay import PRIMITIVES, ReplayBuffer
 
 

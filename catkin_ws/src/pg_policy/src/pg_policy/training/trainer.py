@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import json
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -18,9 +19,16 @@ import torch
 
 from pg_core.geometry import load
 from pg_core.heightmap import Heightmap
-from pg_policy.models import qtensor
+from pg_core.target_mask import MIN_VISIBLE_CELLS, target_mask
+from pg_policy.environment.sim_env import SimEnv
 from pg_policy.models.device import check_device
+from pg_policy.models.model_io import ModelLoadError, load_qnet
+from pg_policy.models.nets.registry import get_backbone
+from pg_policy.perception import scene_change
+from pg_policy.policies.heuristic_planner import HeuristicPlanner
+from pg_policy.training import qtensor, rewards
 from pg_policy.training.config import TrainConfig, scene_list
+from pg_policy.training.curves import plot_curves
 from pg_policy.training.experience_replay import ReplayBuffer, Transition
 from pg_policy.training.stages import STAGES, choose_primitive, epsilon, explore_action
 
@@ -29,12 +37,30 @@ LOG_FIELDS = ["iteration", "episode", "primitive", "rotation", "row", "col", "q"
               "success", "epsilon", "loss", "sim_s", "wall_s"]
 
 
+@dataclass(frozen=True)
+class Action:
+    """One chosen action: primitive, rotation index, heightmap cell; pose (x, y, z, yaw) in `world` m / rad;
+    explored: 0 greedy, 1 random, 2 guided; epsilon of the iteration; q: the Q maps it was chosen on (None for a
+    random grasp); grasp_max: masked max of Q_g over the goal (nan without maps); goal: (H, W) bool goal mask and its
+    colour name (None: goal-agnostic)."""
+
+    primitive: str
+    rotation: int
+    row: int
+    col: int
+    pose: tuple[float, float, float, float]
+    explored: int
+    epsilon: float
+    q: dict[str, np.ndarray] | None
+    grasp_max: float
+    goal: np.ndarray
+    goal_color: str | None
+
+
 class Trainer:
     """Owns the env, the two nets, their optimisers and replay buffers for one stage of one run directory."""
 
     def __init__(self, cfg: TrainConfig) -> None:
-        from pg_policy.environment.sim_env import SimEnv
-
         torch.set_num_threads(cfg.threads)
         torch.manual_seed(cfg.seed)
         self.cfg = cfg
@@ -56,7 +82,6 @@ class Trainer:
         self.env = SimEnv(self.geo)
         self.guide = None
         if cfg.guided_exploration > 0 and not self.stage.goal_agnostic:
-            from pg_policy.policies.heuristic_planner import HeuristicPlanner
 
             self.guide = HeuristicPlanner(self.geo)
         self.log_ = self.dir / "log.csv"
@@ -91,8 +116,6 @@ class Trainer:
     def _init_from_models(self, folder: Path) -> None:
         """Weights from exported TorchScript files (`pushgrasp export` layout); a net without a file keeps its
         fresh initialisation. Raises ModelLoadError for a file made for another backbone or goal input."""
-        from pg_policy.models.model_io import ModelLoadError, load_qnet
-        from pg_policy.models.nets.registry import get_backbone
 
         for role, net in self.nets.items():
             path = folder / f"{role}.pt"
@@ -158,7 +181,6 @@ class Trainer:
     # -- acting ------------------------------------------------------------------------------------------------
     def _goal(self, obs) -> tuple[np.ndarray, str | None]:
         """(goal mask, goal colour). Goal-agnostic: every object cell."""
-        from pg_core.target_mask import target_mask
 
         if self.stage.goal_agnostic:
             return obs.heightmap.valid & (obs.heightmap.height > 0.01), None
@@ -189,7 +211,6 @@ class Trainer:
     def _episode_over(self, obs=None) -> bool:
         """Budget spent, scene empty, or (goal-conditioned stages) the target gone or not visible in `obs`: an
         action on an empty goal mask has no target to learn about (its push region and change region are empty)."""
-        from pg_core.target_mask import MIN_VISIBLE_CELLS
 
         ep, cfg = self.ep_, self.cfg
         if ep["actions"] >= cfg.max_actions or ep["failed"] >= cfg.max_failed_grasps:
@@ -203,10 +224,23 @@ class Trainer:
         return obs is not None and int(self._goal(obs)[0].sum()) < MIN_VISIBLE_CELLS
 
     def step(self, obs) -> tuple[dict, object]:
-        """One iteration; returns (log row, next observation)."""
-        from pg_core.target_mask import target_mask
-        from pg_policy.training import rewards
+        """One iteration of the paper's loop (act, execute, label, learn); returns (log row, next observation)."""
+        action = self.act(obs)
+        result = self.env.step(action.primitive, *action.pose)
+        self.ep_["actions"] += 1
+        nxt = self.env.observe()
+        transition, success = self.label(obs, action, result, nxt)
+        loss = self.learn_from(transition)
+        q = action.q[action.primitive][action.rotation, action.row, action.col] if action.q is not None else None
+        row_log = {"iteration": self.iteration, "episode": self.episode, "primitive": action.primitive,
+                   "rotation": action.rotation, "row": action.row, "col": action.col,
+                   "explored": int(action.explored), "q": round(float(q), 4) if q is not None else "",
+                   "reward": transition.reward, "grasped": int(result.grasped), "success": int(success),
+                   "epsilon": round(action.epsilon, 3), "loss": round(loss, 5), "sim_s": round(result.sim_time, 2)}
+        return row_log, nxt
 
+    def act(self, obs) -> Action:
+        """Epsilon-greedy (optionally guided) choice of primitive, rotation and cell on the masked Q maps."""
         cfg, hm = self.cfg, obs.heightmap
         goal, goal_color = self._goal(obs)
         eps = epsilon(self.iteration, cfg.epsilon_start, cfg.epsilon_end, cfg.epsilon_decay)
@@ -230,42 +264,46 @@ class Trainer:
             rot, row, col = explore_action(self.rng, region, cfg.rotations)
         else:
             rot, row, col = qtensor.masked_argmax(q[primitive], region)
-        x, y, z, yaw = qtensor.action_pose(hm, primitive, rot, row, col, self.geo)
-        result = self.env.step(primitive, x, y, z, yaw)
-        self.ep_["actions"] += 1
-        nxt = self.env.observe()
-        if primitive == "grasp":
+        pose = qtensor.action_pose(hm, primitive, rot, row, col, self.geo)
+        return Action(primitive, rot, row, col, pose, int(explored), eps, q, gmax, goal, goal_color)
+
+    def label(self, obs, action: Action, result, nxt) -> tuple[Transition, bool]:
+        """The transition and its reward (DESIGN.md section 7; grasps relabelled in hindsight), and whether the
+        action succeeded."""
+
+        hm, goal = obs.heightmap, action.goal
+        rot, row, col = action.rotation, action.row, action.col
+        if action.primitive == "grasp":
             # hindsight relabelling: the goal of this grasp is the object under the executed pixel
             pixel_color = qtensor.color_at(hm, row, col)
             reward = rewards.grasp_reward(result.grasped_color is not None and result.grasped_color == pixel_color)
-            success = result.target_grasped if goal_color else result.grasped_color is not None
+            success = result.target_grasped if action.goal_color else result.grasped_color is not None
             self.ep_["failed"] += 0 if success else 1
             mask = target_mask(hm.color, hm.valid, pixel_color) if pixel_color else goal
-            t = Transition(hm.color, hm.height, mask, "grasp", rot, row, col, reward)
-        else:
-            self.ep_["pushes"] += 1
-            nmask = target_mask(nxt.heightmap.color, nxt.heightmap.valid, obs.target)
-            q_after = qtensor.q_maps(self.nets, nxt.heightmap, nmask, ("grasp",))
-            changed = rewards.scene_changed(hm, nxt.heightmap, goal, radius_m=rewards.PUSH_CHANGE_RADIUS_M)
-            occ = [rewards.occupancy_ratio(h, m, 0.05, 0.01) for h, m in ((hm, goal), (nxt.heightmap, nmask))]
-            reward = rewards.push_reward(gmax, qtensor.masked_max(q_after["grasp"], nmask), changed, occ[0], occ[1])
-            success = reward > 0
-            t = Transition(hm.color, hm.height, goal, "push", rot, row, col, reward, nxt.heightmap.color,
-                           nxt.heightmap.height, nmask, done=False)
-        loss = 0.0
-        if t.primitive in self.replay:
-            buf = self.replay[t.primitive]
-            picks = [i for i in (buf.sample(self.rng) for _ in range(cfg.replay_samples)) if i is not None]
-            loss, tds = self.learn([t] + [buf.get(i) for i in picks])
-            buf.add(t, tds[0])
-            for i, td in zip(picks, tds[1:], strict=True):
-                buf.update_priority(i, td)
-        row_log = {"iteration": self.iteration, "episode": self.episode, "primitive": primitive, "rotation": rot,
-                   "row": row, "col": col, "explored": int(explored),
-                   "q": round(float(q[primitive][rot, row, col]), 4) if q is not None else "",
-                   "reward": reward, "grasped": int(result.grasped), "success": int(success),
-                   "epsilon": round(eps, 3), "loss": round(loss, 5), "sim_s": round(result.sim_time, 2)}
-        return row_log, nxt
+            return Transition(hm.color, hm.height, mask, "grasp", rot, row, col, reward), success
+        self.ep_["pushes"] += 1
+        nmask = target_mask(nxt.heightmap.color, nxt.heightmap.valid, obs.target)
+        q_after = qtensor.q_maps(self.nets, nxt.heightmap, nmask, ("grasp",))
+        changed = scene_change.scene_changed(hm, nxt.heightmap, goal, radius_m=scene_change.PUSH_CHANGE_RADIUS_M)
+        occ = [rewards.occupancy_ratio(h, m, 0.05, 0.01) for h, m in ((hm, goal), (nxt.heightmap, nmask))]
+        reward = rewards.push_reward(action.grasp_max, qtensor.masked_max(q_after["grasp"], nmask), changed, occ[0],
+                                     occ[1])
+        t = Transition(hm.color, hm.height, goal, "push", rot, row, col, reward, nxt.heightmap.color,
+                       nxt.heightmap.height, nmask, done=False)
+        return t, reward > 0
+
+    def learn_from(self, t: Transition) -> float:
+        """Store the transition in its prioritised replay and take one gradient step on it batched with replayed
+        ones (priorities updated from the new TD errors); the loss, 0.0 for a primitive this stage does not train."""
+        if t.primitive not in self.replay:
+            return 0.0
+        buf = self.replay[t.primitive]
+        picks = [i for i in (buf.sample(self.rng) for _ in range(self.cfg.replay_samples)) if i is not None]
+        loss, tds = self.learn([t] + [buf.get(i) for i in picks])
+        buf.add(t, tds[0])
+        for i, td in zip(picks, tds[1:], strict=True):
+            buf.update_priority(i, td)
+        return loss
 
     def run(self) -> Path:
         from tqdm import tqdm
@@ -299,7 +337,6 @@ class Trainer:
                     self.save()
             bar.close()
         path = self.save()
-        from pg_policy.training.curves import plot_curves
 
         plot_curves(self.log_, self.dir / "curves.png", title=f"{self.stage.name} ({cfg.backbone}, goal {cfg.goal})")
         (self.dir / "summary.json").write_text(json.dumps(

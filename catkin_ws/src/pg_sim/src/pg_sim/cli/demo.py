@@ -16,9 +16,9 @@ import numpy as np
 
 from pg_core import heightmap as hm
 from pg_core.action_geometry import grasp_z
-from pg_sim.scenes.scene_source import make_world_with_scene
 from pg_sim.world.primitives import PrimitiveExecutor, PrimitiveRefused
 from pg_sim.world.render import render_scene_png
+from pg_sim.world.scene_source import make_world_with_scene
 
 STEP = np.pi / 8
 

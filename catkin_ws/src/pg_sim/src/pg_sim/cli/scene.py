@@ -45,8 +45,8 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _render(args: argparse.Namespace) -> int:
-    from pg_sim.scenes.scene_source import make_world_with_scene
     from pg_sim.world.render import render_scene_png
+    from pg_sim.world.scene_source import make_world_with_scene
 
     with make_world_with_scene(args.scene, args.seed) as world:
         render_scene_png(world, args.out)

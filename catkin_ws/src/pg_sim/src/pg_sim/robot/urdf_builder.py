@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from pg_core import geometry as geometry_mod
 from pg_sim.robot.kinematics import matrix_rpy, rpy_matrix, transform
 
 ARMS = ("left", "right")
@@ -424,7 +425,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--check", action="store_true", help="exit 1 if the file differs from what the config gives")
     args = parser.parse_args(argv)
 
-    from pg_core import geometry as geometry_mod
 
     geo = geometry_mod.load(args.config)
     text = build_urdf(geo)

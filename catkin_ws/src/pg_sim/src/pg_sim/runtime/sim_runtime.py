@@ -42,8 +42,9 @@ from pg_sim.runtime.runtime_types import (
 from pg_sim.scenes.colors import color_name, nearest_color_name, rgba
 from pg_sim.scenes.objects import build_shape
 from pg_sim.scenes.scene import SceneError, SceneSpec, find_scene, load_scene
-from pg_sim.scenes.scene_source import RANDOM
 from pg_sim.world.pacer import Pacer, Periodic
+from pg_sim.world.random_scene import drop_scene, sample_drops
+from pg_sim.world.scene_source import RANDOM
 from pg_sim.world.sensor_data import CloudBuilder, MarkerPart, ObjectMarker, depth_with_nan, marker_parts, pose_parts
 from pg_sim.world.world import World
 
@@ -332,7 +333,6 @@ class SimRuntime:
             raise SceneError("empty scene: give a shipped scene name (e.g. packed/case01), a YAML file or 'random'")
         match = RANDOM.match(text)
         if text == "random" or match:
-            from pg_sim.scenes.random_scene import sample_drops
 
             n = int(match.group(1)) if match else int(req.num_objects)
             if match and req.num_objects and int(req.num_objects) != n:
@@ -350,7 +350,6 @@ class SimRuntime:
         previous = w.snapshot() if w.scene is not None else None
         try:
             if random:
-                from pg_sim.scenes.random_scene import drop_scene
 
                 drop_scene(w, scene)
             else:

@@ -13,8 +13,8 @@ import numpy as np
 
 from pg_core import heightmap as hm
 from pg_core.action_geometry import grasp_z, push_z
-from pg_sim.scenes.random_scene import drop_scene, sample_drops
 from pg_sim.world.primitives import PrimitiveExecutor, PrimitiveRefused
+from pg_sim.world.random_scene import drop_scene, sample_drops
 from pg_sim.world.world import World
 
 

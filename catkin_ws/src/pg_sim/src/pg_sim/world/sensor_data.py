@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from pg_sim.scenes.meshes import load_obj
 from pg_sim.scenes.scene import ObjectSpec
 from pg_sim.scenes.shapes import REGISTRY
 
@@ -106,7 +107,6 @@ def _prism_triangles(polygon: tuple[tuple[float, float], ...], half_z: float) ->
 def marker_parts(spec: ObjectSpec) -> list[MarkerPart]:
     """The rviz primitives of one object (shapes from the registry; meshes as mesh resources)."""
     if spec.shape == "mesh":
-        from pg_sim.scenes.meshes import load_obj
 
         if not spec.mesh:
             return []

@@ -13,24 +13,22 @@ The cluster's cells inside the finger corridor (|v offset| <= finger width / 2, 
 met at the nearest one, and the cluster, target included, is carried the rest of the way as one rigid body
 (rotation, sliding and the pile breaking up ignored: an over-estimate for pushes into the pile's far side). A push
 is refused when the target's predicted centre ends outside the workspace shrunk by `margin_m` and farther outside
-it than now, so pushes back inwards, along the edge and pushes that miss the cluster stay allowed. Like
-pg_policy.decision.rules.grasp_check it only re-ranks: Q_p's best cells in the push region are walked in descending
-value (at
-most `top_k`), the first allowed one takes the best value and those ranked above it get -inf; when none is
-allowed Q_p is unchanged.
-A test-time deviation from the paper (docs/ARCHITECTURE.md).
+it than now, so pushes back inwards, along the edge and pushes that miss the cluster stay allowed. As the test-time
+rule "edge_guard" (pg_policy.decision.rules.rule) it is a candidate test on Q_p while the target is visible: the
+pipeline re-ranks Q_p's best cells of the push region by it and every other push rule together. A test-time
+deviation from the paper (docs/ARCHITECTURE.md).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 
 from pg_core.geometry import Geometry
 from pg_core.heightmap import Heightmap, cell_centres, pixel_to_world
-from pg_policy.decision.rerank import rerank
+from pg_policy.decision.option import PolicyOption
+from pg_policy.decision.rules.rule import CandidateTest, Rule, RuleContext
 
 MARGIN_M = 0.03  # the predicted target centre should stay this far inside the workspace (the heuristic's edge_margin)
 OCCUPIED_M = 0.008  # cells higher than this hold an object (the heuristic's `occupied`)
@@ -38,9 +36,14 @@ GAP_CELLS = 4  # objects this many cells (8 mm) apart or closer count as touchin
 TOP_K = 200  # push candidates examined per decision
 
 
-class EdgeGuard:
-    """Re-ranks Q_p so that the chosen push does not carry the target out of the shrunk workspace (module docstring).
-    `rejected` is the number of candidates ranked above the chosen one in the last apply()."""
+class EdgeGuard(Rule):
+    """Rule "edge_guard": a push must not carry the target out of the shrunk workspace (module docstring)."""
+
+    name = "edge_guard"
+    order = 60
+    option = PolicyOption("edge_guard", "switch", "refuse pushes that would carry the target out of the workspace: "
+                          "on or off", rule="edge_guard")
+    primitive = "push"
 
     def __init__(self, geometry: Geometry, margin_m: float = MARGIN_M, top_k: int = TOP_K,
                  occupied_m: float = OCCUPIED_M, gap_cells: int = GAP_CELLS) -> None:
@@ -54,7 +57,6 @@ class EdgeGuard:
         self.half_width = geometry.gripper.finger_size[1] / 2
         self.rotations = geometry.heightmap.rotations
         self.top_k, self.occupied, self.gap = top_k, occupied_m, gap_cells
-        self.rejected = 0
 
     def outside(self, xy: np.ndarray) -> float:
         """How far (m) the point `xy` lies outside the shrunk workspace (0 inside)."""
@@ -89,11 +91,13 @@ class EdgeGuard:
         out = self.outside(after)
         return out <= 0.0 or out <= self.outside(centre) + 1e-9
 
-    def candidate_test(self, hm: Heightmap, target: np.ndarray) -> Callable[[int, int, int], bool] | None:
-        """The yes/no test of a push candidate (rotation, row, col) in `hm` for the (H, W) bool `target` mask; None
-        (every candidate allowed) when the target is empty."""
-        if not target.any():
+    def candidate_test(self, ctx: RuleContext) -> CandidateTest | None:
+        if not ctx.visible or not ctx.target.any():
             return None
+        return self.target_test(ctx.heightmap, ctx.target)
+
+    def target_test(self, hm: Heightmap, target: np.ndarray) -> CandidateTest:
+        """The yes/no test of a push candidate (rotation, row, col) in `hm` for the non-empty (H, W) bool `target`."""
         t_xy = cell_centres(*np.nonzero(target), hm.bounds, hm.resolution)
         c_xy = cell_centres(*np.nonzero(self.cluster(hm.height, target)), hm.bounds, hm.resolution)
 
@@ -102,15 +106,3 @@ class EdgeGuard:
             return self.allows(t_xy, start, r * 2 * math.pi / self.rotations, c_xy)
 
         return allowed
-
-    def apply(self, q: np.ndarray, hm: Heightmap, region: np.ndarray, target: np.ndarray) -> np.ndarray:
-        """(R, H, W) float64 copy of the push map `q`, re-ranked inside the (H, W) bool `region` so that its argmax is
-        the best-valued allowed push for the (H, W) bool `target` mask; `q` unchanged (as float64) when the target
-        is empty or none of the top_k is allowed."""
-        self.rejected = 0
-        allowed = self.candidate_test(hm, target)
-        if allowed is None:
-            return np.asarray(q, dtype=np.float64).copy()
-        out, rank = rerank(q, region, allowed, self.top_k)
-        self.rejected = rank or 0
-        return out

@@ -1,22 +1,21 @@
-"""A geometric check of the learned grasp: the jaw-footprint test of pg_policy.policies.heuristic_planner applied to
-Q_g's best cells.
+"""A geometric check of the learned grasp: the jaw-footprint test (pg_policy.decision.jaw_fit) on Q_g's best cells.
 
 Q_g is an (R, H, W) float map over R rotations (rotation r: the fingers close along yaw = r * 2 pi / R) and the
-heightmap's cells (pg_core.heightmap; heights in metres above the table). The check walks the grasp region's
-cells in descending Q_g (at most `top_k`) and keeps the first whose grasp passes the heuristic planner's
-`grasp_fit` at that cell and yaw: the target fits between the open pads, it is as wide in the pads' central strip as
-anywhere between them (else a round or wedge-shaped target squirts out), no neighbour stands in a finger's sweep,
-and the cell lies within `centre_tol_m` of the pad-centred grasp line. It only re-ranks: the passing cell takes the
-best value and the cells ranked above it get -inf, so the grasp-or-push decision (masked max vs the threshold) is
-the same as without the check. When no candidate passes, Q_g is returned unchanged and `vetoed` is set: the strict
-variant ("jaw-strict") then tells the policy to push instead of grasping (pg_policy.policies.registry.LearnedPolicy),
-as the
-heuristic baseline does when it finds no free grasp. "jaw-walls" is "jaw-strict" that also demands walls where the
-pads touch: the target's highest cell within `wall_window_m` of each end of its extent between the pads must stand
-at least `wall_tol_m` above the fingertips (the grasp z). A top-down heightmap sees the silhouette's edge at the
-height of the target's widest part, so a low edge means the target narrows above the fingertips (a half cylinder
-or a wedge lying flat): the pads would meet a slope and squeeze it down and out. A test-time deviation from the
-paper (docs/ARCHITECTURE.md); "jaw-walls" is in the shipped model's metadata.
+heightmap's cells (pg_core.heightmap; heights in metres above the table). As the test-time rule
+"grasp_check:VARIANT" (pg_policy.decision.rules.rule) it is a candidate test on Q_g while the target is visible: the
+pipeline walks the grasp region's cells in descending Q_g (at most `top_k`) and keeps the first whose grasp passes
+the jaw model's `grasp_fit` at that cell and yaw: the target fits between the open pads, it is as wide in the pads'
+central strip as anywhere between them (else a round or wedge-shaped target squirts out), no neighbour stands in a
+finger's sweep, and the cell lies within `centre_tol_m` of the pad-centred grasp line. It only re-ranks: the passing
+cell takes the best value and the cells ranked above it get -inf, so the grasp-or-push decision (masked max vs the
+threshold) is the same as without the check. When no candidate passes, Q_g is unchanged; the strict variants
+("jaw-strict", "jaw-walls") then ask the policy to push instead of grasping, as the heuristic baseline does when it
+finds no free grasp. "jaw-walls" is "jaw-strict" that also demands walls where the pads touch: the target's highest
+cell within `wall_window_m` of each end of its extent between the pads must stand at least `wall_tol_m` above the
+fingertips (the grasp z). A top-down heightmap sees the silhouette's edge at the height of the target's widest part,
+so a low edge means the target narrows above the fingertips (a half cylinder or a wedge lying flat): the pads would
+meet a slope and squeeze it down and out. A test-time deviation from the paper (docs/ARCHITECTURE.md); "jaw-walls"
+is in the shipped model's rule list.
 """
 
 from __future__ import annotations
@@ -29,7 +28,9 @@ import numpy as np
 from pg_core.action_geometry import grasp_z
 from pg_core.geometry import Geometry
 from pg_core.heightmap import Heightmap, pixel_to_world
-from pg_policy.decision.rerank import rerank
+from pg_policy.decision.jaw_fit import JawFit
+from pg_policy.decision.option import PolicyOption
+from pg_policy.decision.rules.rule import CandidateTest, Rule, RuleContext
 
 
 @dataclass(frozen=True)
@@ -43,50 +44,62 @@ VARIANTS = {
     "jaw-strict": CheckVariant(strict=True, walls=False),
     "jaw-walls": CheckVariant(strict=True, walls=True),
 }
-NAMES = ("none", *VARIANTS)  # what PolicyOptions.grasp_check / `pushgrasp eval --grasp-check` accept
+NAMES = ("none", *VARIANTS)  # what the grasp_check option (`pushgrasp eval --grasp-check`) accepts
+DEFAULT_VARIANT = "jaw-walls"  # the rule's variant when its entry names none
 TOP_K = 200  # candidate cells examined per decision
 CENTRE_TOL_M = 0.01  # the learned cell may sit this far from the pad-centred line along the closing axis
 WALL_WINDOW_M = 0.002  # the ends of the target's extent between the pads searched for its wall height (one cell)
 WALL_TOL_M = 0.002  # the wall must stand this far above the fingertips
 
 
-class JawGraspCheck:
-    """Re-ranks Q_g by the heuristic's jaw-footprint test (module docstring); `strict`: a veto (no candidate
-    passed) asks the policy to push; `walls`: candidates also need walls where the pads touch. Only the last
-    apply()'s outcome is kept (`rejected`, `vetoed`)."""
+class JawGraspCheck(Rule):
+    """Rule "grasp_check:VARIANT" (VARIANTS; default "jaw-walls"): grasp candidates must pass the jaw-footprint test
+    (module docstring); `strict`: a veto (no candidate passed) asks the policy to push; `walls`: candidates also
+    need walls where the pads touch."""
+
+    name = "grasp_check"
+    order = 40
+    option = PolicyOption("grasp_check", "str", "jaw-footprint check of the chosen grasp: none, jaw, jaw-strict or "
+                          "jaw-walls (strict variants push when no grasp passes)", choices=NAMES, rule="grasp_check",
+                          off="none")
+    primitive = "grasp"
+    veto_note = "no grasp passes the jaw check: push"
 
     def __init__(self, geometry: Geometry, top_k: int = TOP_K, centre_tol_m: float = CENTRE_TOL_M,
                  strict: bool = False, walls: bool = False, wall_window_m: float = WALL_WINDOW_M,
                  wall_tol_m: float = WALL_TOL_M) -> None:
-        from pg_policy.policies.heuristic_planner import HeuristicPlanner
-
         if top_k < 1 or centre_tol_m < 0 or wall_window_m < 0:
             raise ValueError(f"grasp check needs top_k >= 1, centre_tol_m >= 0 and wall_window_m >= 0, got {top_k}, "
                              f"{centre_tol_m}, {wall_window_m}")
-        self.planner = HeuristicPlanner(geometry)
+        self.jaw = JawFit(geometry)
         self.prims = geometry.primitives
         self.top_k, self.centre_tol, self.strict = top_k, centre_tol_m, strict
         self.walls, self.wall_window, self.wall_tol = walls, wall_window_m, wall_tol_m
-        self.name = next((n for n, v in VARIANTS.items() if v == CheckVariant(strict, walls)),
-                         f"jaw(strict={strict}, walls={walls})")
-        self.rejected = 0  # candidates ranked above the chosen one in the last apply() (0: the learned choice passed)
-        self.vetoed = False  # the last apply() found no passing candidate among a non-empty region
+        self.variant = next((n for n, v in VARIANTS.items() if v == CheckVariant(strict, walls)),
+                            f"jaw(strict={strict}, walls={walls})")
+        self.vetoes_grasp = strict  # type: ignore[misc]
 
-    @property
-    def push_instead(self) -> bool:
-        """Whether the last apply() asks the policy to push rather than grasp (strict check, vetoed)."""
-        return self.strict and self.vetoed
+    @classmethod
+    def from_arg(cls, geometry: Geometry, arg: str | None) -> JawGraspCheck:
+        name = DEFAULT_VARIANT if arg is None else arg
+        if name not in VARIANTS:
+            raise ValueError(f"unknown grasp check {name!r} (known: {', '.join(VARIANTS)})")
+        v = VARIANTS[name]
+        return cls(geometry, strict=v.strict, walls=v.walls)
+
+    def arg(self) -> str | None:
+        return self.variant
 
     def passes(self, hm: Heightmap, target: np.ndarray, rotation: int, row: int, col: int,
                cells_others: tuple | None = None) -> bool:
         """Whether a grasp at cell (row, col) and `rotation` passes the jaw-footprint test for the (H, W) target."""
-        cells, others = cells_others or self.planner.around(hm, target)
+        cells, others = cells_others or self.jaw.around(hm, target)
         t = target[cells.slice].reshape(-1)
         o = others[cells.slice].reshape(-1)
-        yaw = rotation * 2 * math.pi / self.planner.rotations
+        yaw = rotation * 2 * math.pi / self.jaw.rotations
         centre = np.array(pixel_to_world(row, col, hm.bounds, hm.resolution))
         zg = grasp_z(hm.height, row, col, self.prims)
-        fit = self.planner.grasp_fit(cells.xy[t], cells.xy[o], cells.h[o], centre, yaw, zg)
+        fit = self.jaw.grasp_fit(cells.xy[t], cells.xy[o], cells.h[o], centre, yaw, zg)
         if fit is None or fit[0] < 0:
             return False
         u = np.array([math.cos(yaw), math.sin(yaw)])
@@ -101,7 +114,7 @@ class JawGraspCheck:
         u = np.array([math.cos(yaw), math.sin(yaw)])
         v = np.array([-u[1], u[0]])
         rel = t_xy - centre
-        band = np.abs(rel @ v) <= self.planner.finger_w / 2 + self.planner.p.margin
+        band = np.abs(rel @ v) <= self.jaw.finger_w / 2 + self.jaw.p.margin
         if not band.any():
             return 0.0
         s, h = rel[band] @ u, t_h[band]
@@ -109,26 +122,9 @@ class JawGraspCheck:
         high = h[s >= s.max() - self.wall_window].max()
         return float(min(low, high))
 
-    def apply(self, q: np.ndarray, hm: Heightmap, region: np.ndarray, target: np.ndarray) -> np.ndarray:
-        """(R, H, W) float64 copy of `q` re-ranked inside the (H, W) bool `region` (the grasp region) so that its
-        argmax is the best-valued candidate passing the test for the (H, W) bool `target` mask; `q` unchanged
-        (as float64) when none of the top_k passes or the target is empty."""
-        self.rejected, self.vetoed = 0, False
-        if not target.any():
-            return np.asarray(q, dtype=np.float64).copy()
-        context = self.planner.around(hm, target)
-        out, rank = rerank(q, region, lambda r, row, col: self.passes(hm, target, r, row, col, context), self.top_k)
-        self.rejected = rank or 0
-        self.vetoed = rank is None and bool((region[None] & np.isfinite(out)).any())  # candidates, none passed
-        return out
-
-
-def make_grasp_check(name: str | None, geometry: Geometry) -> JawGraspCheck | None:
-    """The check called `name` ("none" or None: no check; else the JawGraspCheck of VARIANTS[name]); ValueError for
-    other names."""
-    if name in (None, "none"):
-        return None
-    if name in VARIANTS:
-        v = VARIANTS[name]
-        return JawGraspCheck(geometry, strict=v.strict, walls=v.walls)
-    raise ValueError(f"unknown grasp check {name!r} (known: {', '.join(NAMES)})")
+    def candidate_test(self, ctx: RuleContext) -> CandidateTest | None:
+        if not ctx.visible or not ctx.target.any():
+            return None
+        hm, target = ctx.heightmap, ctx.target
+        context = self.jaw.around(hm, target)
+        return lambda r, row, col: self.passes(hm, target, r, row, col, context)

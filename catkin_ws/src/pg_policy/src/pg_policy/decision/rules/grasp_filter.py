@@ -11,7 +11,7 @@ a robust value over its neighbourhood, so the argmax moves to where the net is c
 
 A spec joins parts with "+": "none", "sym", "min3", "sym+min3". The filtered map takes the place of Q_g
 everywhere in the decision (the threshold is compared with its masked max), so a filter also changes how often
-the policy pushes.
+the policy pushes. As a test-time rule (pg_policy.decision.rules.rule) it is "grasp_filter:SPEC".
 """
 
 from __future__ import annotations
@@ -21,7 +21,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pg_core.geometry import Geometry
+from pg_policy.decision.option import PolicyOption
+from pg_policy.decision.rules.rule import Rule, RuleContext
+
 NONE = "none"
+DEFAULT_SPEC = "min3"  # the rule's filter when its entry names none
 
 
 def _minimum(q: np.ndarray, size: int) -> np.ndarray:
@@ -93,3 +98,29 @@ class GraspFilter:
         if self.spatial:
             q = SPATIAL[self.spatial](q, self.size)
         return q
+
+
+class GraspFilterRule(Rule):
+    """Rule "grasp_filter[:SPEC]": the GraspFilter of SPEC (default "min3") applied to Q_g; a "filter" rule, so the
+    Q_g users see (the policy's q_maps) is the filtered map."""
+
+    name = "grasp_filter"
+    order = 10
+    option = PolicyOption("grasp_filter", "str", "filter of Q_g before the decision: none, sym, min<k>, mean<k> or "
+                          "parts joined by '+' (e.g. sym+min3); none removes the rule", metavar="SPEC",
+                          rule="grasp_filter", off=NONE)
+    primitive = "grasp"
+    kind = "filter"
+
+    def __init__(self, grasp_filter: GraspFilter) -> None:
+        self.filter = grasp_filter
+
+    @classmethod
+    def from_arg(cls, geometry: Geometry, arg: str | None) -> GraspFilterRule:
+        return cls(GraspFilter.parse(DEFAULT_SPEC if arg is None else arg))
+
+    def arg(self) -> str | None:
+        return str(self.filter)
+
+    def adjust(self, q: np.ndarray, ctx: RuleContext) -> np.ndarray:
+        return self.filter.apply(q)

@@ -7,32 +7,36 @@ spans the same cells as that window: when the fingers start beside an object the
 the push was trained with; when they start over an object they press push_depth into its top under position
 control, and the simulator's contact solver throws it (most of the packed failures of docs/RESULTS.md: a cube
 launched 0.3 m up, an upright cylinder tipped over). A push is refused when more than `max_cover` of its footprint
-cells stand higher than the fingertips (push z + `tol_m`). Like pg_policy.decision.rules.grasp_check it only re-ranks
-Q_p's best
-`top_k` cells of the push region (pg_policy.decision.rerank): the first allowed one takes the best value; when none is
-allowed Q_p is unchanged. A test-time deviation from the paper (docs/ARCHITECTURE.md).
+cells stand higher than the fingertips (push z + `tol_m`). As the test-time rule "push_landing"
+(pg_policy.decision.rules.rule) it is a candidate test on Q_p while the target is visible: the pipeline re-ranks Q_p's
+best cells of the push region by it and every other push rule together. A test-time deviation from the paper
+(docs/ARCHITECTURE.md).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 
 from pg_core.action_geometry import push_z
 from pg_core.geometry import Geometry
-from pg_core.heightmap import Heightmap
-from pg_policy.decision.rerank import rerank
+from pg_policy.decision.option import PolicyOption
+from pg_policy.decision.rules.rule import CandidateTest, Rule, RuleContext
 
 MAX_COVER = 0.25  # at most this fraction of the closed jaw's footprint may lie on something above the fingertips
 TOL_M = 0.002  # a cell counts as under the fingers when it stands this much above the fingertips
 TOP_K = 200  # push candidates examined per decision
 
 
-class LandingGuard:
-    """Re-ranks Q_p so that the chosen push does not start on top of an object (module docstring). `rejected` is
-    the number of candidates ranked above the chosen one in the last apply()."""
+class LandingGuard(Rule):
+    """Rule "push_landing": a push must not start on top of an object (module docstring)."""
+
+    name = "push_landing"
+    order = 50
+    option = PolicyOption("push_landing", "switch", "refuse pushes whose closed fingers would come down on top of an "
+                          "object: on or off", rule="push_landing")
+    primitive = "push"
 
     def __init__(self, geometry: Geometry, max_cover: float = MAX_COVER, tol_m: float = TOL_M,
                  top_k: int = TOP_K) -> None:
@@ -40,7 +44,6 @@ class LandingGuard:
             raise ValueError(f"landing guard needs 0 <= max_cover <= 1 and top_k >= 1, got {max_cover}, {top_k}")
         self.prims = geometry.primitives
         self.max_cover, self.tol, self.top_k = max_cover, tol_m, top_k
-        self.rejected = 0
         res = geometry.heightmap.resolution
         half_u, half_v = geometry.gripper.finger_size[0], geometry.gripper.finger_size[1] / 2  # closed jaw, m
         n = int(math.ceil(max(half_u, half_v) * math.sqrt(2) / res))
@@ -65,14 +68,8 @@ class LandingGuard:
     def allows(self, height: np.ndarray, rotation: int, row: int, col: int) -> bool:
         return self.cover(height, rotation, row, col) <= self.max_cover
 
-    def candidate_test(self, hm: Heightmap) -> Callable[[int, int, int], bool]:
-        """The yes/no test of a push candidate (rotation, row, col) in `hm`."""
-        return lambda r, row, col: self.allows(hm.height, r, row, col)
-
-    def apply(self, q: np.ndarray, hm: Heightmap, region: np.ndarray) -> np.ndarray:
-        """(R, H, W) float64 copy of the push map `q`, re-ranked inside the (H, W) bool `region` so that its argmax
-        is the best-valued push that does not land on an object; `q` unchanged (as float64) when none of the top_k
-        is allowed."""
-        out, rank = rerank(q, region, lambda r, row, col: self.allows(hm.height, r, row, col), self.top_k)
-        self.rejected = rank or 0
-        return out
+    def candidate_test(self, ctx: RuleContext) -> CandidateTest | None:
+        if not ctx.visible:
+            return None
+        height = ctx.heightmap.height
+        return lambda r, row, col: self.allows(height, r, row, col)

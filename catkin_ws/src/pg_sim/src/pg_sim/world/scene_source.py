@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import re
 
+from pg_sim.scenes.scene import find_scene, load_scene
+from pg_sim.world.random_scene import drop_scene, sample_drops
 from pg_sim.world.world import World
 
 RANDOM = re.compile(r"^random-(\d+)$")
@@ -13,8 +15,6 @@ GENERATED = re.compile(r"^(random|dense)-(\d+)$")
 
 def make_world_with_scene(source: str, seed: int = 0, gui: bool = False) -> World:
     """A World holding the settled scene; raises SceneError/ValueError for unknown names or bad files."""
-    from pg_sim.scenes.random_scene import drop_scene, sample_drops
-    from pg_sim.scenes.scene import find_scene, load_scene
 
     match = RANDOM.match(source)
     scene = None if match else load_scene(find_scene(source))  # validate before starting physics

@@ -1,0 +1,32 @@
+"""`pushgrasp policies`: the policies `--policy` accepts (built-ins and installed plugins), the shipped models, and
+the test-time rules a learned model's rule list may name."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("policies", help="list the policies (built-in and plugins), shipped models and rules",
+                       description="Plugins register through the Python entry-point group `pushgrasp.policies` "
+                                   "(docs/PLUGINS.md).")
+    p.set_defaults(run=_run)
+
+
+def _run(args: argparse.Namespace) -> int:
+    from pg_policy.decision.rules.registry import rule_classes
+    from pg_policy.policies.model_files import SHIPPED_MODELS
+    from pg_policy.policies.registry import ENTRY_POINT_GROUP, policies
+
+    print(f"policies (built-in, and plugins of the entry-point group {ENTRY_POINT_GROUP}):")
+    for name, entry in policies().items():
+        print(f"  {name:<20} {entry.origin:<20} {entry.target}")
+    models = sorted(p.name for p in SHIPPED_MODELS.iterdir() if (p / "grasp.pt").is_file())
+    print(f"shipped models (--policy NAME; {SHIPPED_MODELS}):")
+    for name in models:
+        print(f"  {name}")
+    print("test-time rules (a model's `rules` list, or --rules name[:arg],...):")
+    for name, cls in rule_classes().items():
+        flag = cls.option.flag if cls.option is not None else "-"
+        print(f"  {name:<20} {cls.primitive:<6} {cls.kind:<7} {flag}")
+    return 0

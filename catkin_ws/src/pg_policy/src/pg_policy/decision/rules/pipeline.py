@@ -1,0 +1,102 @@
+"""The ordered chain of test-time rules between the learned nets' Q maps and the decision.
+
+For each Q map (grasp, then push) the pipeline applies, in the configured order, the `adjust` of every rule on that
+map, then re-ranks the map once by the conjunction of the rules' candidate tests (pg_policy.decision.rerank): the
+best-valued candidate inside the primitive's region that passes every test takes the map's best value, so the
+grasp-or-push decision (masked max vs the threshold) is unchanged by the tests; when none of the best `top_k`
+passes, the map is left as it was and a vetoing grasp rule asks the policy to push instead.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from pg_policy.decision.rerank import rerank
+from pg_policy.decision.rules.rule import CandidateTest, Rule, RuleContext
+
+
+@dataclass(frozen=True)
+class RuleOutcome:
+    """q: the adjusted maps {"grasp", "push"} the decision uses; shown: the maps after the "filter" rules only (what
+    the policy shows users as its Q maps); push_instead: a vetoing grasp rule found no passing grasp; note: why;
+    rejected: per map, the candidates ranked above the one that passed every test (0: the best passed, or no tests);
+    vetoed: per map, candidate tests ran and no candidate of a non-empty region passed."""
+
+    q: dict[str, np.ndarray]
+    shown: dict[str, np.ndarray]
+    push_instead: bool
+    note: str
+    rejected: dict[str, int]
+    vetoed: dict[str, bool]
+
+
+def conjunction(tests: Sequence[CandidateTest]) -> CandidateTest:
+    """The candidate test passed when every one of `tests` passes (evaluated in order, stopping at the first no)."""
+    return lambda rot, row, col: all(t(rot, row, col) for t in tests)
+
+
+class RulePipeline:
+    """An ordered list of rules; `specs()` is the list a model's metadata stores (pg_policy.decision.rules.registry
+    builds a pipeline from one)."""
+
+    def __init__(self, rules: Sequence[Rule]) -> None:
+        names = [r.name for r in rules]
+        if len(set(names)) != len(names):
+            raise ValueError(f"a rule may appear once in the rule list, got {names}")
+        self.rules = list(rules)
+        self._before: RuleContext | None = None
+
+    def specs(self) -> list[str]:
+        return [r.spec() for r in self.rules]
+
+    def __getitem__(self, name: str) -> Rule:
+        for r in self.rules:
+            if r.name == name:
+                return r
+        raise KeyError(name)
+
+    def __contains__(self, name: object) -> bool:
+        return any(r.name == name for r in self.rules)
+
+    def reset(self) -> None:
+        self._before = None
+        for r in self.rules:
+            r.reset()
+
+    def observe(self, last: Any, ctx: RuleContext) -> None:
+        """Tell every rule what the previous decision `last` did, `ctx` being the observation after it (nothing on a
+        trial's first decision)."""
+        if last is not None and self._before is not None:
+            for r in self.rules:
+                r.observe(last, self._before, ctx)
+        self._before = ctx
+
+    def apply(self, q: dict[str, np.ndarray], ctx: RuleContext) -> RuleOutcome:
+        """The maps {"grasp": (R, H, W), "push": (R, H, W)} after every rule, for the decision in `ctx`."""
+        out, shown, push_instead, note = {}, {}, False, ""
+        rejected, vetoed = {"grasp": 0, "push": 0}, {"grasp": False, "push": False}
+        for primitive in ("grasp", "push"):
+            rules = [r for r in self.rules if r.primitive == primitive]
+            m = q[primitive]
+            for r in rules:
+                if r.kind == "filter":
+                    m = r.adjust(m, ctx)
+            shown[primitive] = m
+            for r in rules:
+                if r.kind != "filter":
+                    m = r.adjust(m, ctx)
+            tested = [(r, t) for r in rules if (t := r.candidate_test(ctx)) is not None]
+            if tested:
+                region = ctx.region(primitive)
+                m, rank = rerank(m, region, conjunction([t for _, t in tested]), max(r.top_k for r, _ in tested))
+                rejected[primitive] = rank or 0
+                vetoed[primitive] = rank is None and bool((region[None] & np.isfinite(m)).any())
+                vetoers = [r for r, _ in tested if r.vetoes_grasp]
+                if primitive == "grasp" and vetoed[primitive] and vetoers:
+                    push_instead, note = True, vetoers[0].veto_note
+            out[primitive] = m
+        return RuleOutcome(out, shown, push_instead, note, rejected, vetoed)

@@ -1,0 +1,94 @@
+"""The one interface of the test-time rules that adjust the learned policy's Q maps before the decision.
+
+A rule acts on one of the two Q maps (`primitive`: "grasp" or "push"; (R, H, W) float arrays over R rotations and the
+heightmap's cells) in one of two ways, in the style of grid_map's filter chains and costmap_2d's layers:
+- `adjust(q, ctx)`: return a transformed map (a filter, or a memory that suppresses cells with -inf);
+- `candidate_test(ctx)`: return a yes/no test of a candidate (rotation, row, col), or None when the rule has nothing
+  to say in this context. The pipeline (pg_policy.decision.rules.pipeline) walks the map's best cells inside the
+  primitive's region and keeps the first candidate that passes the tests of every rule on that map.
+Within a trial, `observe(last, before, after)` tells a rule what the previous action did (its decision and the
+contexts before and after it); `reset()` starts a new trial. A grasp rule with `vetoes_grasp` asks the policy to push
+instead when no grasp candidate passes (within the push budget).
+
+Rules are created by name from a model's metadata or the policy options (pg_policy.decision.rules.registry): each
+module of this package that defines a Rule subclass with a `name` is one rule.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from pg_core.geometry import Geometry
+from pg_core.heightmap import Heightmap
+from pg_policy.decision.option import PolicyOption
+
+CandidateTest = Callable[[int, int, int], bool]  # (rotation, row, col) -> allowed
+
+
+@dataclass(frozen=True)
+class RuleContext:
+    """What a rule may look at for one decision.
+
+    heightmap: the observation (pg_core.heightmap; `world` metres); target: (H, W) bool target mask when `visible`,
+    else every object cell (the goal-agnostic fallback); grasp_region / push_region: (H, W) bool cells where the
+    decision looks for the grasp / the start of the push (pg_policy.decision.decision.grasp_region, push_region).
+    """
+
+    heightmap: Heightmap
+    target: np.ndarray
+    visible: bool
+    grasp_region: np.ndarray
+    push_region: np.ndarray
+
+    def region(self, primitive: str) -> np.ndarray:
+        return self.grasp_region if primitive == "grasp" else self.push_region
+
+
+class Rule:
+    """Base of every test-time rule (module docstring). Subclasses set `name`, `primitive` and `kind` and override
+    what they use; `from_arg` builds the rule from its metadata argument (the text after "name:" in the rule list,
+    None when absent) and raises ValueError naming the accepted forms for a bad one."""
+
+    name: ClassVar[str] = ""
+    primitive: ClassVar[str] = "grasp"  # the Q map the rule acts on: "grasp" or "push"
+    kind: ClassVar[str] = "check"  # "filter": shapes the map users see (q_maps); "memory": within-trial; "check"
+    vetoes_grasp: ClassVar[bool] = False  # no passing grasp candidate asks the policy to push instead
+    veto_note: ClassVar[str] = ""  # the policy's last_note when this rule's veto makes it push
+    option: ClassVar[PolicyOption | None] = None  # the user option that switches the rule (None: only rule lists)
+    order: ClassVar[int] = 100  # where an option that switches the rule on inserts it into a model's rule list
+    top_k: int = 200  # candidates examined per decision by candidate_test
+
+    @classmethod
+    def from_arg(cls, geometry: Geometry, arg: str | None) -> Rule:
+        if arg is not None:
+            raise ValueError(f"rule {cls.name!r} takes no argument, got {arg!r}")
+        return cls(geometry)  # type: ignore[call-arg]
+
+    def arg(self) -> str | None:
+        """The argument that `from_arg` turns back into this rule (None: no argument)."""
+        return None
+
+    def spec(self) -> str:
+        """The rule's entry in a model's rule list: "name" or "name:arg"."""
+        a = self.arg()
+        return self.name if a is None else f"{self.name}:{a}"
+
+    def reset(self) -> None:
+        """Start a new trial: forget what earlier actions did."""
+
+    def observe(self, last: Any, before: RuleContext, after: RuleContext) -> None:
+        """The previous decision `last` (pg_policy.decision.decision.Decision) was executed in `before`; `after` is
+        the observation the next decision is taken on. Called only when the trial goes on (a grasp asked about here
+        missed the target)."""
+
+    def adjust(self, q: np.ndarray, ctx: RuleContext) -> np.ndarray:
+        """The (R, H, W) map after this rule (default: unchanged; may return `q` itself)."""
+        return q
+
+    def candidate_test(self, ctx: RuleContext) -> CandidateTest | None:
+        """A yes/no test of a candidate (rotation, row, col) in this context, or None (no opinion)."""
+        return None

@@ -1,0 +1,98 @@
+"""What every policy is: the Policy protocol, the options policies are made with, and their shared base.
+
+A policy maps an observation (pg_policy.environment.sim_env.EnvObservation, or anything with `.heightmap`, a
+pg_core.heightmap.Heightmap, and `.target`, the target's palette colour name) to a
+pg_policy.decision.decision.Decision. It finds the target itself, from the colour heightmap with pg_core.target_mask
+(never from the simulator's ground truth). `reset(seed)` starts a new trial (seeding the policy's own randomness);
+`q_maps()` returns the Q maps behind the last decision ({"grasp": (R, H, W), "push": (R, H, W)} float arrays, after
+the "filter" rules) for policies that have them, else {}. A policy may also keep a `last_note` string saying why it
+took its last decision (the evaluation logs it with the action). docs/PLUGINS.md is this contract for third-party
+policies.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from pg_core.geometry import Geometry, load
+from pg_core.heightmap import Heightmap
+from pg_core.target_mask import MIN_VISIBLE_CELLS, target_mask
+from pg_policy.decision.decision import Decision, action_pose
+
+OBJECT_HEIGHT_M = 0.008  # cells higher than this hold an object (the goal-agnostic fallback region)
+
+
+@runtime_checkable
+class Policy(Protocol):
+    name: str
+
+    def reset(self, seed: int | None = None) -> None: ...
+
+    def act(self, obs: Any) -> Decision: ...
+
+    def q_maps(self) -> dict[str, np.ndarray]: ...
+
+
+@dataclass(frozen=True)
+class PolicyOptions:
+    """models: model files/directories (learned policies); seed: default seed before the first reset; geometry: the
+    workspace config (default: pg_core.geometry.load()); device: torch device; overrides: values of the declared
+    options (pg_policy.policies.options: grasp_threshold, push_budget, rules and the rules' switches) by name, an
+    absent or None value meaning the model's own; extra: policy-specific objects (e.g. heuristic_params)."""
+
+    models: tuple[Path, ...] = ()
+    seed: int = 0
+    geometry: Geometry | None = None
+    device: str = "cpu"
+    overrides: Mapping[str, Any] = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def get(self, name: str) -> Any:
+        """The override of option `name`, None when unset."""
+        return self.overrides.get(name)
+
+
+def observed_target(obs: Any) -> np.ndarray:
+    """(H, W) bool target mask of the observation's colour heightmap for its target colour name (may be empty)."""
+    hm: Heightmap = obs.heightmap
+    return target_mask(hm.color, hm.valid, obs.target)
+
+
+def goal_or_all(obs: Any) -> tuple[np.ndarray, bool]:
+    """(the target mask, True) when the target is visible; else (every object cell, False): goal-agnostic, to
+    uncover it."""
+    target = observed_target(obs)
+    if target.sum() >= MIN_VISIBLE_CELLS:
+        return target, True
+    objects = obs.heightmap.height > OBJECT_HEIGHT_M
+    return (objects if objects.any() else np.ones_like(target)), False
+
+
+class PolicyBase:
+    """Geometry, seeded randomness, the last Q maps and Decision construction for the built-in policies."""
+
+    name = "base"
+
+    def __init__(self, opts: PolicyOptions) -> None:
+        self.geometry = opts.geometry or load()
+        self.prims = self.geometry.primitives
+        self.rotations = self.geometry.heightmap.rotations
+        self.rng = np.random.default_rng(opts.seed)
+        self._q: dict[str, np.ndarray] = {}
+
+    def reset(self, seed: int | None = None) -> None:
+        self.rng = np.random.default_rng(seed)
+        self._q = {}
+
+    def q_maps(self) -> dict[str, np.ndarray]:
+        return dict(self._q)
+
+    def decision(self, hm: Heightmap, primitive: str, rotation: int, row: int, col: int, q: float = float("nan"),
+                 grasp_q: float = float("nan")) -> Decision:
+        x, y, z, yaw = action_pose(hm, primitive, rotation, row, col, self.prims, self.rotations)
+        return Decision(primitive, rotation, row, col, q, yaw, x, y, z, grasp_q)

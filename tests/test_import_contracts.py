@@ -1,0 +1,54 @@
+"""The package graph's import contracts (pyproject.toml [tool.importlinter], docs/ARCHITECTURE.md "Packages"): one-way
+dependencies between pg_core, pg_conversions, pg_sim and pg_policy, the layers inside pg_policy and pg_sim, no ROS in
+the cores, rules never importing baselines. Checked with import-linter, the way `lint-imports` runs them."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+LINT_IMPORTS = Path(sys.executable).with_name("lint-imports")
+
+
+def _lint(config: Path, cwd: Path, pythonpath: str | None = None) -> subprocess.CompletedProcess[str]:
+    env = None
+    if pythonpath is not None:
+        import os
+
+        env = {**os.environ, "PYTHONPATH": pythonpath}
+    return subprocess.run([str(LINT_IMPORTS), "--config", str(config), "--no-cache", "--no-logo"], cwd=cwd,
+                          capture_output=True, text=True, timeout=300, env=env)
+
+
+def test_the_project_keeps_every_import_contract():
+    # the source trees first: the catkin devel space on the path holds only relay __init__ files of the packages
+    pkgs = ("pg_core", "pg_conversions", "pg_sim", "pg_policy")
+    src = [str(REPO / "catkin_ws" / "src" / pkg / "src") for pkg in pkgs]
+    res = _lint(REPO / "pyproject.toml", REPO, pythonpath=":".join(src))
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "BROKEN" not in res.stdout and " KEPT" in res.stdout
+
+
+def test_a_broken_contract_fails(tmp_path: Path):
+    # a package whose core imports rospy: the same kind of contract must report it
+    pkg = tmp_path / "demo_core"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "geometry.py").write_text("import rospy  # noqa: F401\n")
+    config = tmp_path / "contracts.toml"
+    config.write_text(textwrap.dedent("""
+        [tool.importlinter]
+        root_packages = ["demo_core"]
+        include_external_packages = true
+
+        [[tool.importlinter.contracts]]
+        name = "core imports no ROS"
+        type = "forbidden"
+        source_modules = ["demo_core"]
+        forbidden_modules = ["rospy"]
+    """))
+    res = _lint(config, tmp_path, pythonpath=str(tmp_path))
+    assert res.returncode != 0 and "BROKEN" in res.stdout and "demo_core.geometry -> rospy" in res.stdout
