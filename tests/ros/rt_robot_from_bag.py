@@ -24,7 +24,8 @@ from sensor_msgs.msg import JointState
 def write_bag(path: Path, seconds: float = 6.0) -> None:
     """Camera + per-arm joint states of packed/case01, stamped with sim time, as the drivers would publish them."""
     from pg_sim.ros import ros_conversions as conv
-    from pg_sim.runtime.sim_runtime import RuntimeConfig, SimRuntime
+    from pg_sim.runtime.runtime_types import RuntimeConfig
+    from pg_sim.runtime.sim_runtime import SimRuntime
 
     config = RuntimeConfig(scene="packed/case01", camera_rate=2.0, idle_real_time_factor=0.0)
     with SimRuntime(config) as sim, rosbag.Bag(str(path), "w") as bag:

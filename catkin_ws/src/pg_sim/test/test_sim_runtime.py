@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from pg_sim.robot.trajectory import JointTrajectory, TrajectoryPoint
-from pg_sim.runtime.runtime_types import ResetRequest
-from pg_sim.runtime.sim_runtime import RuntimeConfig, SimRuntime
+from pg_sim.runtime.runtime_types import ResetRequest, RuntimeConfig
+from pg_sim.runtime.sim_runtime import SimRuntime
 from pg_sim.scenes.scene import SceneError
 from pg_sim.world.pacer import Pacer
 from pg_sim.world.sensor_data import CLOUD_DTYPE

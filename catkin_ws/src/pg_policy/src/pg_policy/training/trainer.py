@@ -82,7 +82,6 @@ class Trainer:
         self.env = SimEnv(self.geo)
         self.guide = None
         if cfg.guided_exploration > 0 and not self.stage.goal_agnostic:
-
             self.guide = HeuristicPlanner(self.geo)
         self.log_ = self.dir / "log.csv"
 

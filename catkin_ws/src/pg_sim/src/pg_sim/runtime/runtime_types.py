@@ -100,3 +100,20 @@ class StepOutput:
     scene_state: SceneState | None = None
     markers: list[ObjectMarker] | None = None
     messages: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class RuntimeConfig:
+    """Rates are in Hz of sim time (<= 0 disables the output); real-time factors: 0 = as fast as possible."""
+
+    scene: str = "packed/case01"
+    seed: int = 0
+    num_objects: int = 10
+    gui: bool = False
+    time_step: float = 1.0 / 240.0
+    camera_rate: float = 2.0
+    joint_state_rate: float = 50.0
+    clock_rate: float = 100.0
+    scene_state_rate: float = 2.0
+    real_time_factor: float = 0.0       # cap while something moves
+    idle_real_time_factor: float = 1.0  # cap while nothing moves

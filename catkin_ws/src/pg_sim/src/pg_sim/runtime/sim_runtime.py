@@ -22,13 +22,13 @@ from __future__ import annotations
 
 import queue
 import time
-from dataclasses import dataclass
 
 import numpy as np
 import pybullet as p
 
 from pg_core.geometry import Geometry
 from pg_sim.robot.trajectory import JointTrajectory, TrajectoryError, TrajectoryFollower
+from pg_sim.runtime.reset_request import resolve_reset
 from pg_sim.runtime.runtime_types import (
     CameraCapture,
     JointStateData,
@@ -36,20 +36,18 @@ from pg_sim.runtime.runtime_types import (
     PendingReset,
     ResetRequest,
     ResetResult,
+    RuntimeConfig,
     SceneState,
     StepOutput,
 )
 from pg_sim.scenes.colors import color_name, nearest_color_name, rgba
-from pg_sim.scenes.objects import build_shape
-from pg_sim.scenes.scene import SceneError, SceneSpec, find_scene, load_scene
+from pg_sim.scenes.scene import SceneError, SceneSpec
 from pg_sim.world.pacer import Pacer, Periodic
-from pg_sim.world.random_scene import drop_scene, sample_drops
-from pg_sim.world.scene_source import RANDOM
+from pg_sim.world.random_scene import drop_scene
 from pg_sim.world.sensor_data import CloudBuilder, MarkerPart, ObjectMarker, depth_with_nan, marker_parts, pose_parts
 from pg_sim.world.world import World
 
 FALLEN_Z = -0.5          # m: objects below this have left the table for good and are frozen
-MAX_RANDOM_OBJECTS = 40  # largest random scene a reset accepts
 ARM_SETTLE_TOL = 2e-3    # rad: after a trajectory the arm counts as moving until within this of its reference
 ARM_SETTLE_MAX = 1.0     # s: ... or for at most this long (an arm pressing on an object may never get there)
 GRIPPER_MIN_BUSY = 0.05  # s after a gripper command during which it counts as moving (fingers still accelerating)
@@ -58,23 +56,6 @@ OBJECT_LIN_TOL = 0.01    # m/s: an object moving faster than this keeps the sim 
 OBJECT_ANG_TOL = 0.1     # rad/s
 MAX_START_DELAY = 10.0   # s: a trajectory stamped further in the future is refused (a wall-clock stamp, surely)
 CAMERA_REUSE_MAX = 5.0   # s: an unchanged scene re-uses its last render for at most this long
-
-
-@dataclass(frozen=True)
-class RuntimeConfig:
-    """Rates are in Hz of sim time (<= 0 disables the output); real-time factors: 0 = as fast as possible."""
-
-    scene: str = "packed/case01"
-    seed: int = 0
-    num_objects: int = 10
-    gui: bool = False
-    time_step: float = 1.0 / 240.0
-    camera_rate: float = 2.0
-    joint_state_rate: float = 50.0
-    clock_rate: float = 100.0
-    scene_state_rate: float = 2.0
-    real_time_factor: float = 0.0       # cap while something moves
-    idle_real_time_factor: float = 1.0  # cap while nothing moves
 
 
 class _Arm:
@@ -106,7 +87,7 @@ class SimRuntime:
     def __init__(self, config: RuntimeConfig | None = None, geometry: Geometry | None = None,
                  pacer: Pacer | None = None) -> None:
         self.config = cfg = config or RuntimeConfig()
-        first = self._resolve(ResetRequest(cfg.scene, cfg.num_objects, cfg.seed))  # raises SceneError: no world yet
+        first = resolve_reset(ResetRequest(cfg.scene, cfg.num_objects, cfg.seed))  # raises SceneError: no world yet
         self.world = World(geometry, gui=cfg.gui, time_step=cfg.time_step)
         self.geometry = self.world.geometry
         self.pacer = pacer or Pacer(cfg.real_time_factor, cfg.idle_real_time_factor)
@@ -196,7 +177,7 @@ class SimRuntime:
     def reset(self, request: ResetRequest) -> ResetResult:
         """Load a scene (validated first: on refusal nothing changes); arms homed, grippers open."""
         try:
-            resolved = self._resolve(request)
+            resolved = resolve_reset(request)
         except (SceneError, ValueError, OSError, RuntimeError) as e:
             return ResetResult(False, f"reset refused, scene unchanged: {e}")
         return self._apply_reset(*resolved)
@@ -326,31 +307,11 @@ class SimRuntime:
             except (TrajectoryError, KeyError, ValueError) as e:
                 messages.append(f"{arm} {kind} command refused: {e}")
 
-    def _resolve(self, req: ResetRequest) -> tuple[SceneSpec, bool]:
-        """The scene of a request and whether it is a random drop; raises SceneError/ValueError before any change."""
-        text = (req.scene or "").strip()
-        if not text:
-            raise SceneError("empty scene: give a shipped scene name (e.g. packed/case01), a YAML file or 'random'")
-        match = RANDOM.match(text)
-        if text == "random" or match:
-
-            n = int(match.group(1)) if match else int(req.num_objects)
-            if match and req.num_objects and int(req.num_objects) != n:
-                raise SceneError(f"scene {text!r} names {n} objects but num_objects is {req.num_objects}")
-            if not 1 <= n <= MAX_RANDOM_OBJECTS:
-                raise SceneError(f"a random scene needs num_objects in [1, {MAX_RANDOM_OBJECTS}], got {n}")
-            scene, random = sample_drops(n, int(req.seed)), True
-        else:
-            scene, random = load_scene(find_scene(text)), False
-        _check_buildable(scene)
-        return scene, random
-
     def _apply_reset(self, scene: SceneSpec, random: bool) -> ResetResult:
         w = self.world
         previous = w.snapshot() if w.scene is not None else None
         try:
             if random:
-
                 drop_scene(w, scene)
             else:
                 w.load_scene(scene)
@@ -429,16 +390,3 @@ class SimRuntime:
                 p.changeDynamics(body, -1, mass=0.0, physicsClientId=c)  # static from now on
                 self.frozen_.add(body)
 
-
-def _check_buildable(scene: SceneSpec) -> None:
-    """Build every object's shapes in a scratch PyBullet client; raises ValueError naming the first that fails."""
-    client = p.connect(p.DIRECT)
-    try:
-        for spec in scene.objects:
-            try:
-                build_shape(client, spec)
-            except (ValueError, OSError, RuntimeError, p.error) as e:
-                raise SceneError(f"scene {scene.name!r}: object {spec.name!r} ({spec.shape}) cannot be built: {e}") \
-                    from None
-    finally:
-        p.disconnect(client)

@@ -107,7 +107,6 @@ def _prism_triangles(polygon: tuple[tuple[float, float], ...], half_z: float) ->
 def marker_parts(spec: ObjectSpec) -> list[MarkerPart]:
     """The rviz primitives of one object (shapes from the registry; meshes as mesh resources)."""
     if spec.shape == "mesh":
-
         if not spec.mesh:
             return []
         v = load_obj(spec.mesh).vertices * np.asarray(spec.scale)
