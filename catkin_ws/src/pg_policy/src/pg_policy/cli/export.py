@@ -20,7 +20,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--stage", default=None, choices=STAGE_ORDER,
                    help="stage whose last.pt to export (default: the latest stage present)")
     p.add_argument("--out", type=Path, required=True, help="output directory for grasp.pt and push.pt")
-    options.add_arguments(p)  # stored in the grasp net's metadata; unset: the run's threshold/budget, the base rules
+    options.add_arguments(p, unset="the run's threshold and budget; rules: failed_grasps:0.01 only")
     p.set_defaults(run=_run)
 
 

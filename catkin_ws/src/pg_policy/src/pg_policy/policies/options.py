@@ -63,8 +63,8 @@ def resolved_rules(model_specs: Sequence[str], overrides: Mapping[str, Any]) -> 
     return specs
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """One flag per declared option (default None: the model's own)."""
+def add_arguments(parser: argparse.ArgumentParser, unset: str = "the model's own") -> None:
+    """One flag per declared option (default None; `unset` says in --help what an unset option means)."""
     for o in options():
         def parse(text: str, o: PolicyOption = o) -> Any:
             try:
@@ -74,7 +74,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
         metavar = "{on,off}" if o.type == "switch" else ("{" + ",".join(o.choices) + "}" if o.choices else o.metavar)
         parser.add_argument(o.flag, dest=o.name, type=parse, default=None, metavar=metavar,
-                            help=f"{o.help} (default: the model's own)")
+                            help=f"{o.help} (default: {unset})")
 
 
 def from_args(args: argparse.Namespace) -> dict[str, Any]:
