@@ -48,19 +48,13 @@ OFFSETS = (0.0, -0.006, 0.006, -0.012, 0.012, -0.018, 0.018, -0.024, 0.024, -0.0
 
 
 @dataclass(frozen=True)
-class HeuristicParams:
-    """Tunables (metres unless stated)."""
+class HeuristicParams(JawParams):
+    """Tunables (metres unless stated): the jaw-footprint test's (JawParams: margin, obstacle_tol, occupied, window,
+    min_band_cells, centre_line, chord_tol) and the rule's own."""
 
-    margin: float = 0.003  # free space demanded around the finger regions
-    obstacle_tol: float = 0.004  # a neighbour blocks when higher than grasp z - tol
-    occupied: float = 0.008  # cells higher than this hold an object
-    window: float = 0.10  # half-size of the region around the target that is examined
     push_gap: float = 0.004  # first gap tried between the closed fingers and the target
     max_backoff: float = 0.10  # farthest start tried behind the target (over neighbours: they are pushed too)
     edge_margin: float = 0.03  # predicted target centre must stay this far inside the workspace
-    min_band_cells: int = 10  # target cells needed between the finger pads for a grasp
-    centre_line: float = 0.006  # half-width of the central strip of the pads
-    chord_tol: float = 0.004  # the target may be this much narrower in the central strip than between the pads
     enough_clearance: float = 0.01  # more clearance than this does not make a grasp better
     width_weight: float = 0.5  # score per metre of target width between the pads (narrow grasps are stabler)
     repeat_radius: float = 0.008  # a failed grasp closer than this (same rotation) is not repeated
@@ -88,9 +82,7 @@ class HeuristicPlanner:
         self.g = geometry
         self.p = params or HeuristicParams()
         self.rotations = geometry.heightmap.rotations
-        p = self.p
-        self.jaw = JawFit(geometry, JawParams(p.margin, p.obstacle_tol, p.occupied, p.window, p.min_band_cells,
-                                              p.centre_line, p.chord_tol))
+        self.jaw = JawFit(geometry, self.p)
         self.half_open, self.finger_t, self.finger_w = self.jaw.half_open, self.jaw.finger_t, self.jaw.finger_w
 
     # -- helpers -----------------------------------------------------------------------------------------------
