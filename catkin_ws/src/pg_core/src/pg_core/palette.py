@@ -37,9 +37,20 @@ def normalize_name(name: str) -> str:
     return name.strip().lower().replace("grey", "gray")
 
 
+NAME_SHOWN = 40  # characters of an unknown colour name that error messages repeat
+
+
+def shown_name(name: object) -> str:
+    """`name` quoted for an error message, cut to NAME_SHOWN characters (a long name is not echoed whole)."""
+    text = str(name)
+    if len(text) <= NAME_SHOWN:
+        return repr(text)
+    return f"{text[:NAME_SHOWN]!r}... ({len(text)} characters)"
+
+
 def palette_rgb(name: str) -> RGB:
     """RGB of a ``PALETTE`` name (case-insensitive, ``grey`` accepted); ValueError listing the known names."""
     key = normalize_name(name)
     if key not in PALETTE:
-        raise ValueError(f"unknown colour {name!r}; known colours: {', '.join(sorted(PALETTE))}")
+        raise ValueError(f"unknown colour {shown_name(name)}; known colours: {', '.join(sorted(PALETTE))}")
     return PALETTE[key]

@@ -23,7 +23,7 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from pg_core.palette import BACKGROUND, PALETTE, RGB, normalize_name
+from pg_core.palette import BACKGROUND, PALETTE, RGB, normalize_name, shown_name
 
 HUE_TOL = 10.0  # largest hue half-width (HSV_FULL units; 10 = 14.1 deg)
 SAT_TOL = 0.4  # largest relative saturation deviation from the palette colour
@@ -121,7 +121,7 @@ def hsv_window(name: str) -> HsvWindow:
     """The window of a palette colour name (case-insensitive, ``grey`` accepted); ValueError listing known names."""
     key = normalize_name(name)
     if key not in WINDOWS:
-        raise ValueError(f"unknown target colour {name!r}; known colours: {', '.join(sorted(WINDOWS))}")
+        raise ValueError(f"unknown target colour {shown_name(name)}; known colours: {', '.join(sorted(WINDOWS))}")
     return WINDOWS[key]
 
 
