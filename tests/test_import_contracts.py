@@ -52,3 +52,22 @@ def test_a_broken_contract_fails(tmp_path: Path):
     """))
     res = _lint(config, tmp_path, pythonpath=str(tmp_path))
     assert res.returncode != 0 and "BROKEN" in res.stdout and "demo_core.geometry -> rospy" in res.stdout
+
+
+def test_the_catkin_package_graph_is_declared_one_way():
+    # every package.xml dependency between our packages, as catkin reads it; the graph must have no cycle and
+    # the simulator must not depend on the policy
+    from catkin_pkg.package import parse_package
+
+    ours = {p.parent.name: parse_package(str(p)) for p in (REPO / "catkin_ws" / "src").glob("*/package.xml")}
+    graph = {name: {d.name for d in (*pkg.build_depends, *pkg.exec_depends, *pkg.build_export_depends,
+                                     *pkg.test_depends) if d.name in ours}
+             for name, pkg in ours.items()}
+    assert {"pg_description", "pg_msgs", "pg_core", "pg_conversions", "pg_sim", "pg_control", "pg_policy"} <= set(ours)
+    assert "pg_policy" not in graph["pg_sim"] and graph["pg_description"] == set()
+    assert graph["pg_core"] == {"pg_description"}
+    done: set[str] = set()
+    while len(done) < len(graph):  # Kahn: peel off packages whose dependencies are all placed
+        ready = {n for n, deps in graph.items() if n not in done and deps <= done}
+        assert ready, f"dependency cycle among {sorted(set(graph) - done)}"
+        done |= ready
