@@ -39,18 +39,18 @@ def export_run(run: Path, out: Path, stage: str | None = None, overrides: dict[s
     values (thresholds.grasp_q, thresholds.push_budget: `overrides` else the run's) and the rule list (BASE_RULES
     edited by the rule options of `overrides`, pg_policy.policies.options) in the metadata. Raises
     FileNotFoundError (no checkpoint), ValueError (a bad option value or rule list)."""
-    import torch
 
     from pg_core.geometry import load as load_geometry
     from pg_policy.decision.rules.registry import make_pipeline
     from pg_policy.models.model_io import export_qnet
     from pg_policy.models.nets.qnet import QNetConfig, build_qnet
+    from pg_policy.training.checkpoint import load_checkpoint
 
     overrides = dict(overrides or {})
     # every option and rule argument is validated (and written in its canonical form) before anything is written
     rules = make_pipeline(options.resolved_rules(BASE_RULES, overrides), load_geometry()).specs()
     ck_path = latest_checkpoint(run, stage)
-    ck = torch.load(ck_path, map_location="cpu", weights_only=False)
+    ck = load_checkpoint(ck_path)
     cfg = ck["config"]
     qcfg = QNetConfig(backbone=cfg["backbone"], goal=cfg["goal"], rotations=int(cfg["rotations"]))
     threshold, push_budget = overrides.get("grasp_threshold"), overrides.get("push_budget")

@@ -27,6 +27,7 @@ from pg_policy.models.nets.registry import get_backbone
 from pg_policy.perception import scene_change
 from pg_policy.policies.heuristic_planner import HeuristicPlanner
 from pg_policy.training import qtensor, rewards
+from pg_policy.training.checkpoint import load_checkpoint
 from pg_policy.training.config import TrainConfig, scene_list
 from pg_policy.training.curves import plot_curves
 from pg_policy.training.experience_replay import ReplayBuffer, Transition
@@ -89,7 +90,7 @@ class Trainer:
     def _restore(self) -> None:
         last = self.dir / "last.pt"
         if last.exists():
-            ck = torch.load(last, map_location="cpu", weights_only=False)
+            ck = load_checkpoint(last)
             for role, net in self.nets.items():
                 net.load_state_dict(ck["nets"][role])
             for role, opt in self.opts.items():
@@ -107,7 +108,7 @@ class Trainer:
             if Path(init).is_dir():
                 self._init_from_models(Path(init))
             else:
-                ck = torch.load(init, map_location="cpu", weights_only=False)
+                ck = load_checkpoint(init)
                 for role, net in self.nets.items():
                     net.load_state_dict(ck["nets"][role])
             print(f"[train] {self.stage.name}: starting from {init}")
