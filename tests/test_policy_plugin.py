@@ -17,7 +17,6 @@ import math
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -187,12 +186,6 @@ def ros_env() -> dict[str, str]:
     return _ros_environment()
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def _tagged(tag: str) -> list[int]:
     """Pids of this user's live processes whose environment holds MARKER=tag (the stack's processes)."""
     needle = f"{MARKER}={tag}\0".encode()
@@ -211,13 +204,9 @@ def _tagged(tag: str) -> list[int]:
 def _stop(proc: subprocess.Popen[bytes], tag: str) -> list[int]:
     """SIGINT to the launch's process group (roslaunch shuts its nodes and master down), SIGKILL to the group if it
     lingers, then SIGKILL to any process of the stack still alive; returns the pids that had to be killed so."""
-    if proc.poll() is None:
-        os.killpg(proc.pid, signal.SIGINT)
-        try:
-            proc.wait(SHUTDOWN_TIMEOUT_S)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait(10.0)
+    from pg_policy.ros.demo import stop
+
+    stop(proc, SHUTDOWN_TIMEOUT_S)
     deadline = time.monotonic() + 10.0
     while _tagged(tag) and time.monotonic() < deadline:  # nodes finishing their own shutdown
         time.sleep(0.5)
@@ -259,7 +248,9 @@ print(json.dumps({"success": res.success, "message": res.message, "policy": d.po
 
 def test_policy_node_serves_the_plugin(ros_env: dict[str, str], example_plugin: str, tmp_path: Path) -> None:
     env = dict(ros_env)
-    port, tag = _free_port(), uuid.uuid4().hex
+    from pg_policy.ros.demo import free_port
+
+    port, tag = free_port(), uuid.uuid4().hex
     env.pop("ROS_HOSTNAME", None)
     env.update(ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_IP="127.0.0.1", ROS_LOG_DIR=str(tmp_path / "log"),
                ROS_HOME=str(tmp_path / "ros_home"), OMP_NUM_THREADS="1", **{MARKER: tag})

@@ -64,7 +64,8 @@ class LearnedPolicy(PolicyBase):
         threshold, self.last_note = (-math.inf if spent else self.threshold), ""
         if outcome.push_instead and not spent:
             threshold, self.last_note = math.inf, outcome.note
-        d = decide(outcome.q["grasp"], outcome.q["push"], target, hm, self.prims, threshold)
+        d = decide(outcome.q["grasp"], outcome.q["push"], target, hm, self.prims, threshold,
+                   push_mask=ctx.push_region, grasp_mask=ctx.grasp_region)  # the regions the rules saw
         self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0
         self.last = d
         return d
