@@ -17,8 +17,7 @@ from pg_core.heightmap import Heightmap
 from pg_sim.scenes.colors import nearest_color_name
 from pg_sim.scenes.scene import SceneSpec, find_scene, load_scene
 from pg_sim.world.primitives import PrimitiveExecutor, PrimitiveRefused
-from pg_sim.world.random_scene import drop_scene, sample_drops
-from pg_sim.world.scene_source import RANDOM
+from pg_sim.world.scene_families import generate_scene, parse_generated
 from pg_sim.world.world import World
 
 
@@ -64,15 +63,13 @@ class SimEnv:
         self.close()
 
     def reset(self, scene: Any, seed: int = 0) -> EnvObservation:
-        """Load a scene: a SceneSpec, a shipped name/YAML path, "random-N" (N objects dropped from `seed` over
-        +-0.11 m) or "dense-N" (N objects dropped over +-0.05 m: packed clutter for training pushes)."""
+        """Load a scene: a SceneSpec, a shipped name/YAML path, or a generated family ``<family>-N`` dropped from
+        `seed` (random-N, dense-N, novel-N, novel-packed-N, mixed-N, train-...: pg_sim.world.scene_families)."""
 
         if isinstance(scene, SceneSpec):
             self.world.load_scene(scene)
-        elif m := RANDOM.match(str(scene)):
-            drop_scene(self.world, sample_drops(int(m.group(1)), seed))
-        elif str(scene).startswith("dense-") and str(scene)[6:].isdigit():
-            drop_scene(self.world, sample_drops(int(str(scene)[6:]), seed, half_extent=0.05))
+        elif parse_generated(str(scene)):
+            generate_scene(self.world, str(scene), seed)
         else:
             self.world.load_scene(load_scene(find_scene(str(scene))))
         self.target = self.world.scene.target if self.world.scene else "green"

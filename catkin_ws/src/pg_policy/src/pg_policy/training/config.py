@@ -7,7 +7,7 @@ from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 
 from pg_policy.models.device import check_device
-from pg_sim.world.scene_source import GENERATED  # the simulator's own name pattern imported at run time only
+from pg_sim.world.scene_families import FAMILIES, GENERATED  # the simulator's generated scene families
 
 TRAIN_SEED_LIMIT = 1_000_000  # training seeds are < this; evaluation seeds are >= this (disjoint)
 
@@ -29,8 +29,10 @@ class TrainConfig:
                                  "from (default: the previous stage's last.pt in --out)")
     iterations: int = _f(2000, "actions to execute in this stage (the run resumes from its checkpoint)")
     minutes: float = _f(0.0, "wall-clock budget in minutes for this invocation (0 = no limit)")
-    scene: str = _f("random-10", "training scenes: random-N (N objects dropped) or dense-N (N packed objects); a "
-                                 "comma-separated list (e.g. dense-8,random-15) takes them in turn, one per episode")
+    scene: str = _f("random-10", "training scenes: random-N (N blocks dropped), dense-N (N packed blocks), "
+                                 "train-novel-N, train-novel-packed-N or train-mixed-N (training objects of the "
+                                 "catalogue); a comma-separated list (e.g. dense-8,train-mixed-10) takes them in "
+                                 "turn, one per episode")
     seed: int = _f(0, f"training seed (< {TRAIN_SEED_LIMIT}; evaluation uses seeds >= {TRAIN_SEED_LIMIT})")
     lr: float = _f(1e-4, "Adam learning rate (paper: 1e-4)")
     weight_decay: float = _f(2e-5, "Adam weight decay (paper: 2e-5)")
@@ -82,12 +84,17 @@ def from_args(args: argparse.Namespace) -> TrainConfig:
 
 
 def scene_list(spec: str) -> list[str]:
-    """The training scene families of `spec` ("dense-8" or "dense-8,random-15"), in episode order.
-    Raises ValueError on an empty list or an entry that is not random-N / dense-N."""
-
+    """The training scene families of `spec` ("dense-8" or "dense-8,train-mixed-10"), in episode order.
+    Raises ValueError on an empty list, an entry that is not a generated family with N >= 1, or a family of held-out
+    objects (novel-N, novel-packed-N, mixed-N: they are for evaluation only)."""
     scenes = [s.strip() for s in spec.split(",")]
     bad = [s for s in scenes if not (m := GENERATED.match(s)) or int(m.group(2)) < 1]
     if bad:
-        raise ValueError(f"--scene {spec!r}: {', '.join(repr(b) for b in bad)} is not random-N or dense-N "
-                         "(N objects, N >= 1); separate several with commas")
+        raise ValueError(f"--scene {spec!r}: {', '.join(repr(b) for b in bad)} is not a generated family with N >= 1 "
+                         f"({', '.join(f'{f}-N' for f, fam in FAMILIES.items() if fam.split != 'heldout')}); "
+                         "separate several with commas")
+    held = [s for s in scenes if FAMILIES[GENERATED.match(s).group(1)].split == "heldout"]  # type: ignore[union-attr]
+    if held:
+        raise ValueError(f"--scene {spec!r}: {', '.join(map(repr, held))} draws held-out objects, which are never "
+                         "trained on; use the train-... families (train-novel-N, train-novel-packed-N, train-mixed-N)")
     return scenes

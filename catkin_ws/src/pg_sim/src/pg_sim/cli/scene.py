@@ -16,8 +16,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     render = cmds.add_parser("render", help="settle a scene and save camera image + heightmaps as one PNG")
     render.add_argument("scene", help="shipped scene name (see `scene list`), a scene YAML file, or random-N")
     render.add_argument("--out", required=True, type=Path, help="output PNG path")
-    render.add_argument("--seed", type=int, default=0, help="seed for random-N scenes (default 0)")
+    render.add_argument("--seed", type=int, default=0, help="seed for generated scenes (default 0)")
     render.set_defaults(run=_render)
+
+    gallery = cmds.add_parser("gallery", help="render example scenes of generated families into one PNG each")
+    gallery.add_argument("families", nargs="+", help="generated scenes, e.g. novel-10 novel-packed-8 mixed-15")
+    gallery.add_argument("--out-dir", required=True, type=Path, help="folder for <family>.png")
+    gallery.add_argument("--seeds", type=int, nargs="+", default=[1000000, 1000001, 1000002],
+                         help="seeds, one scene per seed (default 1000000 1000001 1000002)")
+    gallery.set_defaults(run=_gallery)
+
+    objects = cmds.add_parser("objects", help="list the object catalogue: kinds, splits and id ranges")
+    objects.set_defaults(run=_objects)
 
     imp = cmds.add_parser("import-vpg", help="convert a VPG/Xu text test case to a scene YAML")
     imp.add_argument("file", type=Path, help="text case: one `mesh r g b x y z a b c` line per object, row 0 = target")
@@ -40,7 +50,32 @@ def _list(args: argparse.Namespace) -> int:
     for name in list_scenes():
         scene = load_scene(find_scene(name))
         print(f"{name:24s} {len(scene.objects):3d} objects  target {scene.target}")
-    print("random-N                 N objects dropped from a seed (--seed), e.g. random-10")
+    from pg_sim.world.scene_families import FAMILIES
+
+    for family, fam in FAMILIES.items():
+        what = "blocks" if fam.split is None else f"{fam.split} objects" + (" and blocks" if fam.block_share else "")
+        print(f"{family + '-N':24s} N {what} dropped over +-{fam.half_extent} m from a seed (--seed)")
+    return 0
+
+
+def _gallery(args: argparse.Namespace) -> int:
+    from pg_sim.world.render import render_gallery_png
+
+    for family in args.families:
+        out = render_gallery_png(family, args.seeds, args.out_dir / f"{family}.png")
+        print(f"wrote {out}")
+    return 0
+
+
+def _objects(args: argparse.Namespace) -> int:
+    from pg_sim.objects.catalog import KINDS, object_ids
+
+    train, held = object_ids("train"), object_ids("heldout")
+    print(f"{'kind':10s} {'train':>6s} {'held-out':>9s}  held-out ids")
+    for kind in KINDS:
+        ids = held[kind]
+        span = ", ".join(i.split("/")[1] for i in ids) if kind == "named" else f"{ids[0]} .. {ids[-1]}"
+        print(f"{kind:10s} {len(train[kind]):6d} {len(ids):9d}  {span}")
     return 0
 
 

@@ -1,7 +1,9 @@
 """Arbitrary .obj meshes as PyBullet objects: reading, convexity test, cached V-HACD decomposition, shapes.
 
-The local frame of a mesh object is its (scaled) bounding-box centre. Concave meshes are decomposed once with
-V-HACD and cached (see pg_sim.scenes.shapes.cache_dir); convex ones load directly.
+The local frame of a mesh object is its (scaled) bounding-box centre. A mesh ``X.obj`` collides as its companion
+``X.collision.obj`` when that file exists (convex parts, one group each, e.g. inset by Bullet's margin); otherwise
+concave meshes are decomposed once with V-HACD and cached (see pg_sim.scenes.shapes.cache_dir) and convex ones load
+directly.
 """
 
 from __future__ import annotations
@@ -102,6 +104,12 @@ def mesh_extents(path: str | os.PathLike[str], scale: float | Sequence[float] = 
     return (float(ext[0]), float(ext[1]), float(ext[2]))
 
 
+def collision_file(path: str | os.PathLike[str]) -> Path:
+    """The collision companion of a mesh file: ``X.obj`` -> ``X.collision.obj`` (used when it exists)."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}.collision{path.suffix}")
+
+
 def build_mesh(
     client: int, path: str | os.PathLike[str], scale: float | Sequence[float] = 1.0
 ) -> tuple[int, int, float]:
@@ -117,8 +125,11 @@ def build_mesh(
     mesh = load_obj(path)
     s = np.asarray(_scale3(scale))
     centre = -(mesh.vertices.min(axis=0) + mesh.vertices.max(axis=0)) / 2.0 * s
-    convex = mesh.objects > 1 or is_convex(mesh)  # several objects = already decomposed into convex pieces
-    col_file = path if convex else decomposed_obj(path)
+    if collision_file(path).is_file():
+        col_file = collision_file(path)
+    else:
+        convex = mesh.objects > 1 or is_convex(mesh)  # several objects = already decomposed into convex pieces
+        col_file = path if convex else decomposed_obj(path)
     col = p.createCollisionShape(
         p.GEOM_MESH, fileName=str(col_file), meshScale=list(s), collisionFramePosition=list(centre),
         physicsClientId=client,

@@ -48,6 +48,7 @@ def spawn_object(client: int, spec: ObjectSpec, contact: Contact = DEFAULT_CONTA
     Raises ValueError / FileNotFoundError as ``build_shape`` and RuntimeError if PyBullet refuses the body.
     """
     col, vis, mass = build_shape(client, spec)
+    mass = spec.mass if spec.mass is not None else mass
     x, y, z, roll, pitch, yaw = spec.pose
     quat = p.getQuaternionFromEuler([roll, pitch, yaw], physicsClientId=client)
     body = p.createMultiBody(

@@ -8,6 +8,7 @@ objects:
   - shape: cube               # a shapes.REGISTRY name, or `mesh` with `mesh: path/to.obj` (relative to this file)
     size: [0.045, 0.045, 0.045]   # optional bounding-box extents (m); default from the registry; not for meshes
     scale: 1.0                # meshes only: one factor or [sx, sy, sz]
+    mass: 0.08                # optional, kg; default: the shape's (meshes: from the volume)
     color: green              # name or [r, g, b] 0-255
     pose: [x, y, z, roll, pitch, yaw]   # in `world`, metres / radians, ROS fixed-axis roll-pitch-yaw
     target: true              # optional; exactly one target. Without one, the unique object of the target colour
@@ -39,9 +40,10 @@ _PKG_SCENES = (
     Path(__file__).resolve().parents[5] / "share" / "pg_sim" / "scenes",  # install space: lib/python3/dist-packages
 )
 _TOP_KEYS = {"name", "target", "family", "objects"}
-_OBJECT_KEYS = {"shape", "size", "scale", "color", "pose", "target", "name", "mesh"}
+_OBJECT_KEYS = {"shape", "size", "scale", "color", "pose", "target", "name", "mesh", "mass"}
 
 Pose = tuple[float, float, float, float, float, float]
+MIN_MASS, MAX_MASS = 0.001, 5.0  # kg: the masses a scene object may be given
 
 
 class SceneError(ValueError):
@@ -52,7 +54,8 @@ class SceneError(ValueError):
 class ObjectSpec:
     """One object: shape name, bounding-box size (m, None = default), RGB 0-255, pose in `world`
     (x, y, z, roll, pitch, yaw; metres, radians, ROS fixed-axis rpy about the shape's bounding-box centre),
-    absolute mesh path for shape ``mesh``, target flag, unique name, and the mesh scale factors."""
+    absolute mesh path for shape ``mesh``, target flag, unique name, the mesh scale factors and the mass (kg, None =
+    the shape's default)."""
 
     shape: str
     size: tuple[float, float, float] | None
@@ -62,6 +65,7 @@ class ObjectSpec:
     target: bool = False
     name: str = ""
     scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    mass: float | None = None
 
 
 @dataclass(frozen=True)
@@ -190,7 +194,12 @@ def _parse_object(raw: Any, i: int, source: str, base_dir: Path, lines: _Lines) 
     name = raw.get("name", f"{shape}_{i}")
     if not isinstance(name, str) or not name:
         raise fail(f"name must be a non-empty string, got {name!r}", "name")
-    return ObjectSpec(shape, size, color, pose, mesh, target, name, scale)  # type: ignore[arg-type]
+    mass = raw.get("mass")
+    if mass is not None and (isinstance(mass, bool) or not isinstance(mass, int | float)
+                             or not MIN_MASS <= mass <= MAX_MASS):
+        raise fail(f"mass must be a number of kg in [{MIN_MASS}, {MAX_MASS}], got {mass!r}", "mass")
+    return ObjectSpec(shape, size, color, pose, mesh, target, name, scale,  # type: ignore[arg-type]
+                      None if mass is None else float(mass))
 
 
 def parse_scene(
@@ -227,6 +236,8 @@ def parse_scene(
             raise _fail(source, lines.obj(i, "name"), f"duplicate name {o.name!r} (also object {seen[o.name]})", i)
         seen[o.name] = i
     flagged = [i for i, o in enumerate(specs) if o.target]
+    if len(flagged) == 1:
+        _refuse_shared_target_colour(specs, flagged[0], source, lines)
     if len(flagged) > 1:
         raise _fail(source, lines.obj(flagged[1], "target"), f"several targets: objects {flagged}; exactly one allowed")
     if not flagged:
@@ -240,6 +251,17 @@ def parse_scene(
             )
         specs[flagged[0]] = replace(specs[flagged[0]], target=True)
     return SceneSpec(str(name), target, tuple(specs), str(family))
+
+
+def _refuse_shared_target_colour(specs: list[ObjectSpec], target: int, source: str, lines: _Lines) -> None:
+    """Raise SceneError naming both objects when another object has the target object's colour: the goal would be
+    ambiguous to every policy (they are told a colour, not an object)."""
+    rgb = specs[target].color
+    for i, o in enumerate(specs):
+        if i != target and o.color == rgb:
+            raise _fail(source, lines.obj(i, "color"),
+                        f"object {i} ({o.name!r}) has the colour {color_name(rgb) or list(rgb)} of the target, object "
+                        f"{target} ({specs[target].name!r}): the goal would be ambiguous; give it another colour", i)
 
 
 def _family_of(path: Path) -> str:
@@ -289,6 +311,8 @@ def scene_to_dict(scene: SceneSpec, base_dir: str | Path | None = None) -> dict[
             d["size"] = [float(v) for v in o.size]
         d["color"] = color_name(o.color) or [int(v) for v in o.color]
         d["pose"] = [float(v) for v in o.pose]
+        if o.mass is not None:
+            d["mass"] = float(o.mass)
         if o.target:
             d["target"] = True
         objects.append(d)

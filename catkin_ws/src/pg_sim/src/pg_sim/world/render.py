@@ -54,3 +54,42 @@ def target_visible_cells(world: World) -> int:
     """Heightmap cells whose top surface belongs to the target (ground truth)."""
     obs = world.capture()
     return int(np.sum(world.label_heightmap(obs) == world.target_id))
+
+
+def render_gallery_png(family: str, seeds: list[int], out: Path) -> Path:
+    """One row per seed of generated scene ``family``: camera image and colour heightmap with the target outlined
+    (red) and its kind in the title. Raises ValueError for a name that is not a generated family."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pg_sim.world.scene_families import check_generated, generate_scene, target_kind
+
+    check_generated(family)
+    fig, axes = plt.subplots(len(seeds), 2, figsize=(9, 4.2 * len(seeds)), dpi=90, squeeze=False)
+    for row, seed in zip(axes, seeds, strict=True):
+        with World() as world:
+            scene = generate_scene(world, family, seed)
+            obs = world.observe()
+            labels = world.label_heightmap(obs.frame)
+            b = world.geometry.workspace.bounds
+            extent = (b[0, 0], b[0, 1], b[1, 0], b[1, 1])
+            tid = world.target_id
+            kind = target_kind(scene.target_object.name)
+            row[0].imshow(obs.frame.color)
+            row[0].contour(obs.frame.segmentation == tid, levels=[0.5], colors="red", linewidths=1.2)
+            row[0].set_title(f"{family} seed {seed}: camera")
+            row[1].imshow(obs.heightmap.color, origin="lower", extent=extent)
+            row[1].contour((labels == tid).astype(float), levels=[0.5], colors="red", linewidths=1.2, extent=extent,
+                           origin="lower")
+            row[1].set_title(f"colour heightmap; target: {kind} ({int((labels == tid).sum())} cells)")
+            for ax in row:
+                ax.set_xticks([])
+                ax.set_yticks([])
+    fig.tight_layout()
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out)
+    plt.close(fig)
+    return out

@@ -1,27 +1,23 @@
-"""Resolve a scene argument (shipped name, YAML path, or `random-N`) into a settled World."""
+"""Resolve a scene argument (shipped name, YAML path, or a generated `<family>-N`) into a settled World."""
 
 from __future__ import annotations
 
-import re
-
 from pg_sim.scenes.scene import find_scene, load_scene
-from pg_sim.world.random_scene import drop_scene, sample_drops
+from pg_sim.world.scene_families import GENERATED, generate_scene, parse_generated
 from pg_sim.world.world import World
 
-RANDOM = re.compile(r"^random-(\d+)$")
-# scenes generated from a seed: random-N (dropped over +-0.11 m) and dense-N (over +-0.05 m, training clutter)
-GENERATED = re.compile(r"^(random|dense)-(\d+)$")
+__all__ = ["GENERATED", "make_world_with_scene"]
 
 
 def make_world_with_scene(source: str, seed: int = 0, gui: bool = False) -> World:
     """A World holding the settled scene; raises SceneError/ValueError for unknown names or bad files."""
 
-    match = RANDOM.match(source)
-    scene = None if match else load_scene(find_scene(source))  # validate before starting physics
+    generated = parse_generated(source)
+    scene = None if generated else load_scene(find_scene(source))  # validate before starting physics
     world = World(gui=gui)
     try:
-        if match:
-            drop_scene(world, sample_drops(int(match.group(1)), seed))
+        if generated:
+            generate_scene(world, source, seed)
         else:
             world.load_scene(scene)
     except Exception:

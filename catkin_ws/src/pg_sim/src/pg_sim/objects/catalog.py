@@ -1,0 +1,129 @@
+"""The object catalogue: every non-block object a scene can use, by id, with its training / held-out split.
+
+An object id is ``<kind>/<index>``:
+- generated kinds (pg_sim.objects.generated: thin, rod, rolling, concave, small, wide): index 0-999, dimensions drawn
+  from a generator seeded by (kind, index). Split by index: 0-799 training, 800-999 held-out.
+- ``blob/<index>``: pybullet_data's procedural ``random_urdfs`` (0-999). Split by index: 0-799 training, 800-999
+  held-out.
+- ``named/<name>``: pybullet_data's named meshes (pg_sim.objects.pybullet_assets.NAMED). Split by name:
+  held-out ``NAMED_HELD_OUT`` (duck, bunny, teddy, mug, torus), training the rest.
+Held-out objects are never trained on: the training scene families draw from ``object_ids("train")`` only.
+
+``object_spec`` turns an id into an ObjectSpec of shape ``mesh``; generated meshes are written once to
+``<cache>/objects/`` (``PUSHGRASP_CACHE``, default ``~/.cache/pushgrasp``): ``<kind>-<index>-v<N>.obj`` with the
+nominal parts (what the camera sees) and its collision companion ``....collision.obj`` whose groups are the parts
+inset by Bullet's margin, so PyBullet collides with a compound of exact hulls at the nominal surface.
+"""
+
+from __future__ import annotations
+
+import os
+import zlib
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from pg_sim.objects import generated
+from pg_sim.objects.pybullet_assets import BLOB_COUNT, BLOB_SCALE, NAMED, blob_path, data_path
+from pg_sim.scenes.meshes import collision_file, load_obj, mesh_volume
+from pg_sim.scenes.scene import ObjectSpec, Pose
+from pg_sim.scenes.shapes import cache_dir
+
+SPLITS = ("train", "heldout")
+HELD_OUT_FROM = 800  # generated kinds and blobs: index >= 800 is held out
+INDEX_COUNT = 1000
+NAMED_HELD_OUT = ("duck", "bunny", "teddy", "mug", "torus")
+GENERATED_KINDS = tuple(generated.BUILDERS)
+KINDS = (*GENERATED_KINDS, "blob", "named")
+MASS_RANGE = (0.005, 0.4)  # kg
+MESH_VERSION = 1  # bump when a generator changes: cached files are keyed by it
+
+
+def split_of(object_id: str) -> str:
+    """"train" or "heldout" for an object id. Raises ValueError for a malformed id."""
+    kind, index = parse_id(object_id)
+    if kind == "named":
+        return "heldout" if index in NAMED_HELD_OUT else "train"
+    return "heldout" if int(index) >= HELD_OUT_FROM else "train"
+
+
+def parse_id(object_id: str) -> tuple[str, str]:
+    """(kind, index or name) of ``kind/index``. Raises ValueError naming the known kinds."""
+    kind, sep, index = str(object_id).partition("/")
+    if not sep or kind not in KINDS:
+        raise ValueError(f"object id {str(object_id)[:60]!r}: expected <kind>/<index> with kind in {', '.join(KINDS)}")
+    if kind == "named":
+        if index not in NAMED:
+            raise ValueError(f"object id {object_id!r}: unknown named mesh; known: {', '.join(NAMED)}")
+    elif not index.isdigit() or not 0 <= int(index) < INDEX_COUNT:
+        raise ValueError(f"object id {object_id!r}: index must be an integer in [0, {INDEX_COUNT})")
+    return kind, index
+
+
+def object_ids(split: str, kinds: tuple[str, ...] = KINDS) -> dict[str, list[str]]:
+    """{kind: ids of that kind in ``split``} for the requested kinds. Raises ValueError for an unknown split/kind."""
+    if split not in SPLITS:
+        raise ValueError(f"unknown split {split!r}; use one of {', '.join(SPLITS)}")
+    out: dict[str, list[str]] = {}
+    for kind in kinds:
+        if kind not in KINDS:
+            raise ValueError(f"unknown object kind {kind!r}; known: {', '.join(KINDS)}")
+        if kind == "named":
+            names = [n for n in NAMED if (n in NAMED_HELD_OUT) == (split == "heldout")]
+            out[kind] = [f"named/{n}" for n in names]
+        else:
+            count = BLOB_COUNT if kind == "blob" else INDEX_COUNT
+            rng = range(HELD_OUT_FROM, count) if split == "heldout" else range(HELD_OUT_FROM)
+            out[kind] = [f"{kind}/{i}" for i in rng]
+    return out
+
+
+def _generated_file(kind: str, index: int) -> tuple[Path, float]:
+    """The cached .obj of a generated object (made on first use) and its mass (kg)."""
+    rng = np.random.default_rng([zlib.crc32(kind.encode()), index])
+    parts, density = generated.build(kind, rng)
+    mass = float(np.clip(sum(p.volume for p in parts) * density, *MASS_RANGE))
+    out = cache_dir("objects") / f"{kind}-{index:03d}-v{MESH_VERSION}.obj"
+    collision = collision_file(out)
+    if not (out.exists() and collision.exists()):
+        _write_parts(collision, [generated.inset(p) for p in parts])
+        _write_parts(out, parts)
+    return out, mass
+
+
+def _write_parts(path: Path, parts: list[trimesh.Trimesh]) -> None:
+    """Write ``parts`` as one .obj with a group per part (atomically: readers never see half a file)."""
+    scene = trimesh.Scene()
+    for k, part in enumerate(parts):
+        scene.add_geometry(part, geom_name=f"part{k}")
+    text = trimesh.exchange.obj.export_obj(scene, include_normals=False, include_texture=False,
+                                           write_texture=False, include_color=False)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+
+
+@lru_cache(maxsize=256)
+def _mesh_volume(path: Path) -> float:
+    return mesh_volume(load_obj(path))
+
+
+def object_spec(object_id: str, color: tuple[int, int, int], pose: Pose, name: str,
+                target: bool = False) -> ObjectSpec:
+    """An ObjectSpec (shape ``mesh``) for catalogue object ``object_id``. Raises ValueError / FileNotFoundError."""
+    kind, index = parse_id(object_id)
+    if kind in GENERATED_KINDS:
+        path, mass = _generated_file(kind, int(index))
+        scale = (1.0, 1.0, 1.0)
+    else:
+        if kind == "blob":
+            path, scale, density = blob_path(int(index)), (BLOB_SCALE,) * 3, 500.0
+        else:
+            named = NAMED[index]
+            path, scale, density = data_path(named.file), named.scale, named.density
+        volume = _mesh_volume(path) * float(np.prod(scale))
+        mass = float(np.clip(volume * density, *MASS_RANGE))
+    return ObjectSpec(shape="mesh", size=None, color=color, pose=pose, mesh=str(path), target=target, name=name,
+                      scale=(float(scale[0]), float(scale[1]), float(scale[2])), mass=mass)
