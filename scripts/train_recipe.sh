@@ -13,6 +13,10 @@
 #   PG_TRAIN_INIT     exported model directory that replaces the grasp-agnostic stage ("": train it)
 #   PG_TRAIN_THREADS  torch CPU threads (2)
 #   PG_TRAIN_SCALE    multiplies every stage's iterations (1.0), e.g. 0.5 for a quicker, weaker model
+#   PG_TRAIN_BACKBONE backbone of the four stages (lite); lite-os8 to start from the shipped model (PG_TRAIN_INIT)
+#   PG_TRAIN_OBJECTS  blocks: the block scenes of the shipped model (blocks); mixed: every stage also takes scenes
+#                     of the catalogue's training objects (train-mixed-N, train-novel-N, train-novel-packed-N, in
+#                     turn with the block scenes, one per episode); held-out objects are never trained on
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/.." && pwd)
 cd "$repo"
@@ -22,6 +26,8 @@ minutes="${PG_TRAIN_MINUTES:-0}"
 init="${PG_TRAIN_INIT:-}"
 threads="${PG_TRAIN_THREADS:-2}"
 scale="${PG_TRAIN_SCALE:-1.0}"
+objects="${PG_TRAIN_OBJECTS:-blocks}"
+backbone="${PG_TRAIN_BACKBONE:-lite}"
 py="$repo/.venv/bin/python"
 
 # stage | scenes | iterations | lr | seed | extra flags (training seeds < 1,000,000; evaluation uses >= 1,000,000).
@@ -30,11 +36,16 @@ py="$repo/.venv/bin/python"
 # rule of the shipped model (threshold 0.7, grasp after 3 pushes in a row; exported with the model), so the stage
 # trains on the states the policy meets (with --grasp-threshold 0.9 alone it pushed 46 times in 50 actions). --guided-exploration: part of the exploratory actions come from the heuristic's
 # push / free-grasp rules (docs/ARCHITECTURE.md).
+case "$objects" in
+  blocks) sparse=random-10; dense=dense-8 ;;
+  mixed) sparse=random-10,train-mixed-10,train-novel-10; dense=dense-8,train-novel-packed-8,train-mixed-10 ;;
+  *) echo "[recipe] PG_TRAIN_OBJECTS must be blocks or mixed, got '$objects'" >&2; exit 2 ;;
+esac
 STAGES=(
-  "grasp-agnostic random-10 2000 5e-4 1"
-  "grasp-goal     random-10 1000 2e-4 2 --guided-exploration 0.5"
-  "push           dense-8   1000 2e-4 3 --guided-exploration 0.8 --early-grasp-threshold 1.0"
-  "alternate      dense-8   1000 1e-4 4 --guided-exploration 0.7 --grasp-threshold 0.7 --push-budget 3"
+  "grasp-agnostic $sparse 2000 5e-4 1"
+  "grasp-goal     $sparse 1000 2e-4 2 --guided-exploration 0.5"
+  "push           $dense  1000 2e-4 3 --guided-exploration 0.8 --early-grasp-threshold 1.0"
+  "alternate      $dense  1000 1e-4 4 --guided-exploration 0.7 --grasp-threshold 0.7 --push-budget 3"
 )
 
 for row in "${STAGES[@]}"; do
@@ -51,7 +62,7 @@ for row in "${STAGES[@]}"; do
   fi
   echo "[recipe] $stage: $iters iterations on $scene, lr $lr, seed $seed"
   "$py" -m pg_policy.cli.main train --stage "$stage" --out "$out" --scene "$scene" --iterations "$iters" --lr "$lr" \
-    --seed "$seed" --threads "$threads" --minutes "$minutes" "${stage_flags[@]}" "${extra[@]}"
+    --backbone "$backbone" --seed "$seed" --threads "$threads" --minutes "$minutes" "${stage_flags[@]}" "${extra[@]}"
   done_its=$("$py" -c "import torch; print(torch.load('$out/$stage/last.pt', weights_only=False)['iteration'])")
   if [ "$done_its" -lt "$iters" ]; then
     echo "[recipe] $stage stopped at $done_its/$iters iterations (time cap): rerun to continue"
@@ -61,9 +72,9 @@ done
 # output stride 8 (docs/ARCHITECTURE.md): the stride-16 alternate result loaded as `lite-os8`, then alternate again
 os8_iters=$("$py" -c "print(max(1, round(800 * $scale)))")
 "$py" -m pg_policy.cli.main export --run "$out" --stage alternate --out "$out/os16_model"
-echo "[recipe] alternate at output stride 8: $os8_iters iterations on dense-8"
+echo "[recipe] alternate at output stride 8: $os8_iters iterations on $dense"
 "$py" -m pg_policy.cli.main train --stage alternate --backbone lite-os8 --init "$out/os16_model" --out "$out/os8" \
-  --scene dense-8 --iterations "$os8_iters" --lr 1e-4 --seed 8 --threads "$threads" --minutes "$minutes" \
+  --scene "$dense" --iterations "$os8_iters" --lr 1e-4 --seed 8 --threads "$threads" --minutes "$minutes" \
   --guided-exploration 0.7 --grasp-threshold 0.7 --push-budget 3 --epsilon-start 0.3 --epsilon-end 0.1 \
   --epsilon-decay "$(( os8_iters * 3 / 4 > 0 ? os8_iters * 3 / 4 : 1 ))"
 done_its=$("$py" -c "import torch; print(torch.load('$out/os8/alternate/last.pt', weights_only=False)['iteration'])")

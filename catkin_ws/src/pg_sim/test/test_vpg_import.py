@@ -30,7 +30,7 @@ def _case(n: int) -> Path:
 
 def test_case5_shapes_colours_target_and_centring() -> None:
     path = _case(5)
-    scene = import_vpg(path, mesh_dir=REFERENCE / "meshes")
+    scene = import_vpg(path, mesh_dir=REFERENCE / "meshes", centre="rows")  # the old bounding-box centring
     assert [o.shape for o in scene.objects] == ["cylinder", "arch", "arch", "rect", "rect"]
     rows = [line.split() for line in path.read_text().splitlines() if line.strip()]
     for obj, row in zip(scene.objects, rows, strict=True):
@@ -40,16 +40,23 @@ def test_case5_shapes_colours_target_and_centring() -> None:
     assert (xy.min(axis=0) + xy.max(axis=0)) / 2 == pytest.approx((0.0, 0.0), abs=1e-3)
     assert all(o.pose[2] == pytest.approx(0.0235, abs=1e-4) for o in scene.objects)  # z kept
     assert scene.name == "case5" and scene.family == "packed"
+    mapped = import_vpg(path, mesh_dir=REFERENCE / "meshes")  # default: VPG's workspace centre (-0.5, 0) -> world
+    for obj, row in zip(mapped.objects, rows, strict=True):
+        assert obj.pose[:2] == pytest.approx((float(row[4]) + 0.5, float(row[5])), abs=1e-6)
 
 
 @pytest.mark.parametrize("n", ALL_CASES)
 def test_every_reference_case_imports_and_spawns(n: int) -> None:
-    scene = import_vpg(_case(n), mesh_dir=REFERENCE / "meshes")
+    green = "green" if n > 10 else None  # case 14's white milk box shares its colour with the salt
+    scene = import_vpg(_case(n), mesh_dir=REFERENCE / "meshes", target_color=green)
     assert scene.target_index == 0 and len(scene.objects) >= 5
     assert scene.family == ("household" if n > 10 else "packed")
     xy = np.array([o.pose[:2] for o in scene.objects])
-    assert (xy.min(axis=0) + xy.max(axis=0)) / 2 == pytest.approx((0.0, 0.0), abs=1e-3)
-    assert np.abs(xy).max() < 0.2  # inside the workspace
+    assert np.abs(xy).max() < 0.2  # inside the workspace (mapped from the source's)
+    rows = import_vpg(_case(n), mesh_dir=REFERENCE / "meshes", target_color=green, centre="rows")
+    rxy = np.array([o.pose[:2] for o in rows.objects])
+    assert (rxy.min(axis=0) + rxy.max(axis=0)) / 2 == pytest.approx((0.0, 0.0), abs=1e-3)
+    assert rxy - rxy[0] == pytest.approx(xy - xy[0], abs=1e-5)  # the same scene, translated
     cid = p.connect(p.DIRECT)
     try:
         bodies = spawn_scene(cid, scene)
@@ -89,8 +96,9 @@ def test_gazebo_copy_of_a_coppeliasim_case_imports_to_the_same_scene(n: int, tmp
     lines = [f"{models[uri]}.obj 0.5 0.5 0.5 {y} {x} {z} {a} {b} {c}" for uri, (x, y, z, a, b, c) in rows]
     gz_file = tmp_path / f"gazebo{n}.txt"
     gz_file.write_text("\n".join(lines) + "\n")
-    gazebo = import_vpg(gz_file)
-    coppelia = import_vpg(_case(n))
+    # the SDF copies were placed by hand (+-0.03 m from case to case): compare poses relative to the rows' centre
+    gazebo = import_vpg(gz_file, target_color="green", centre="rows")
+    coppelia = import_vpg(_case(n), centre="rows")
     axes = {"arch": [(0, 1, 0), (0, 0, 1)], "triangle": [(-1, 0, 0), (0, 0, 1)], "rect": [(0, 1, 0), (0, 0, 1)],
             "cylinder": [(0, 0, 1)], "cube": []}
     for obj in coppelia.objects:

@@ -29,11 +29,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     objects = cmds.add_parser("objects", help="list the object catalogue: kinds, splits and id ranges")
     objects.set_defaults(run=_objects)
 
-    imp = cmds.add_parser("import-vpg", help="convert a VPG/Xu text test case to a scene YAML")
-    imp.add_argument("file", type=Path, help="text case: one `mesh r g b x y z a b c` line per object, row 0 = target")
-    imp.add_argument("--mesh-dir", type=Path, default=None, help="directory of the meshes the case names")
-    imp.add_argument("--out", required=True, type=Path, help="output scene YAML")
-    imp.add_argument("--name", default=None, help="scene name (default: the file's stem)")
+    from pg_sim.scenes.vpg_import import add_arguments
+
+    imp = cmds.add_parser("import-vpg", help="convert a VPG/Xu text test case to a scene YAML (rows parked outside "
+                                             "the source workspace are left out and listed)")
+    add_arguments(imp)
     imp.set_defaults(run=_import)
 
     bench = cmds.add_parser("bench", help="median wall time of one primitive and one observation in clutter")
@@ -97,10 +97,6 @@ def _bench(args: argparse.Namespace) -> int:
 
 
 def _import(args: argparse.Namespace) -> int:
-    from pg_sim.scenes.scene import save_scene
-    from pg_sim.scenes.vpg_import import import_vpg
+    from pg_sim.scenes.vpg_import import run
 
-    scene = import_vpg(args.file, mesh_dir=args.mesh_dir, name=args.name)
-    save_scene(scene, args.out)
-    print(f"wrote {args.out}: {len(scene.objects)} objects, target {scene.target}")
-    return 0
+    return run(args)
