@@ -2,7 +2,9 @@
 results (pg_policy.evaluation.report). Heavy modules (pybullet, torch) are imported inside the handler.
 
 Errors (unknown policy, unknown scene, missing model file, a training seed) end the command with status 2 and one
-line on stderr (pg_policy.cli.main.main).
+line on stderr (pg_policy.cli.main.main). An error inside a trial (the policy or the simulator raising, a worker
+process dying) does not: that trial ends with termination "error" and its reason, the run goes on, and the results
+are written with the errors counted and listed (pg_policy.evaluation.errors, pg_policy.evaluation.pool).
 """
 
 from __future__ import annotations
@@ -31,7 +33,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ev.add_argument("--model", nargs="+", type=Path, default=[],
                     help="models of grasp-only/learned: a directory with grasp.pt [push.pt], or grasp.pt [push.pt]")
     ev.add_argument("--scenes", nargs="+", required=True,
-                    help="packed, household, random-10|random-15|random-20 (any random-N), scene names "
+                    help="packed, household, generated families from the trial seed (random-N; novel-N, "
+                         "novel-packed-N, mixed-N of held-out objects; `pushgrasp scene list`), scene names "
                          "(packed/case01) or scene YAML files")
     ev.add_argument("--trials", type=int, required=True, help="trials per scene")
     ev.add_argument("--seed", type=int, default=DEFAULT_SEED,
@@ -87,7 +90,9 @@ def _worker_trial(index: int, name: str, seed: int, plan: Any) -> tuple[int, Any
 
 def run_trials(policy: str, opts: Any, plan: Any, workers: int, on_trial: Any = None) -> list[Any]:
     """All trials of `plan` (in plan order) with `workers` processes (1 = in this process); `on_trial(record)` is
-    called as each finishes. Every trial runs in a fresh SimEnv, so the records do not depend on `workers`."""
+    called as each finishes. Every trial runs in a fresh SimEnv, so the records do not depend on `workers`.
+    A trial that raises, or whose worker process dies, is an error record; the others are kept
+    (pg_policy.evaluation.pool)."""
     from pg_policy.evaluation.trials import run_plan
 
     if workers <= 1:
@@ -95,20 +100,10 @@ def run_trials(policy: str, opts: Any, plan: Any, workers: int, on_trial: Any = 
         from pg_policy.policies.registry import make_policy
 
         return run_plan(SimEnv, make_policy(policy, opts), plan, on_trial)
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from pg_policy.evaluation.pool import run_parallel
 
-    jobs = plan.jobs()
-    results: list[Any] = [None] * len(jobs)
-    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"), initializer=_worker_init,
-                             initargs=(policy, opts, worker_threads(workers))) as pool:
-        futures = [pool.submit(_worker_trial, i, name, seed, plan) for i, (name, seed) in enumerate(jobs)]
-        for fut in as_completed(futures):
-            i, rec = fut.result()
-            results[i] = rec
-            if on_trial is not None:
-                on_trial(rec)
-    return results
+    return run_parallel(plan.jobs(), plan, workers, _worker_trial, _worker_init,
+                        (policy, opts, worker_threads(workers)), on_trial)
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -118,6 +113,7 @@ def _run(args: argparse.Namespace) -> int:
 
     from pg_core.geometry import load as load_geometry
     from pg_policy.decision.rules.pipeline import RulePipeline
+    from pg_policy.evaluation.errors import reason_lines
     from pg_policy.evaluation.report import git_commit, write_results
     from pg_policy.evaluation.trials import EvalPlan, Limits, check_seed, expand_scenes
     from pg_policy.models.device import check_device
@@ -164,7 +160,10 @@ def _run(args: argparse.Namespace) -> int:
         done.append(rec)
         graspers = [t.grasp_success for t in done if t.grasp_success is not None]
         gs = f"{100 * sum(graspers) / len(graspers):.0f}%" if graspers else "n/a"
-        bar.set_postfix_str(f"C {100 * sum(t.completed for t in done) / len(done):.0f}% GS {gs} last {rec.scene}")
+        n_err = sum(t.termination == "error" for t in done)
+        errs = f" errors {n_err}" if n_err else ""
+        bar.set_postfix_str(f"C {100 * sum(t.completed for t in done) / len(done):.0f}% GS {gs}{errs} "
+                            f"last {rec.scene}")
         bar.update(1)
 
     t0 = time.perf_counter()
@@ -174,6 +173,11 @@ def _run(args: argparse.Namespace) -> int:
         bar.close()
     config["wall_s"] = round(time.perf_counter() - t0, 1)
     paths = write_results(args.out, trials, config)
-    print(paths["md"].read_text(encoding="utf-8").split("\n\nC: ")[0])
+    print(paths["md"].read_text(encoding="utf-8").split("\n\nC: ")[0])  # the table and the error reasons
+    if reason_lines(trials):
+        import sys
+
+        print(f"{sum(t.termination == 'error' for t in trials)} of {len(trials)} trials ended in an error: see "
+              f"{paths['md']} and the trials' error / error_at / error_trace in {paths['json']}", file=sys.stderr)
     print(f"wrote {', '.join(str(p) for p in paths.values())}")
     return 0

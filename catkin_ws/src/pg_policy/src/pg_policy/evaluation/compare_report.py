@@ -5,7 +5,8 @@ Input: per policy, a folder searched recursively for results.json files (`script
 family); a scene found twice for one policy is an error. Families: packed (packed/case01-09), household
 (household/case11-14), random (random-N). Family rows pool every trial of the family
 (pg_policy.evaluation.trials.summarize).
-C and GS in percent, MN in pushes per completed trial, each mean ± standard error over trials.
+C and GS in percent, MN in pushes per completed trial, each mean ± standard error over trials. Trials that ended in an
+error (termination "error") are failures in C like any other; the policy table counts them.
 """
 
 from __future__ import annotations
@@ -52,7 +53,8 @@ class PolicyResults:
 def _record(d: dict) -> TrialRecord:
     keys = ("scene", "seed", "completed", "termination", "grasps", "target_grasps", "failed_grasps", "pushes",
             "refused")
-    return TrialRecord(**{k: d[k] for k in keys})
+    optional = ("error", "error_at")  # absent from results written before errors were recorded
+    return TrialRecord(**{k: d[k] for k in keys}, **{k: d.get(k) for k in optional})
 
 
 def load_policy(name: str, folder: Path) -> PolicyResults:
@@ -138,8 +140,9 @@ def paired_table(model: PolicyResults, baselines: Sequence[PolicyResults]) -> li
 
 
 def markdown(policies: Sequence[PolicyResults], check: str | None = None) -> str:
-    out = ["| Policy | trials per scene |", "|---|---|"]
-    out += [f"| {p.name} | {', '.join(sorted({str(len(ts)) for ts in p.trials.values()}))} |" for p in policies]
+    out = ["| Policy | trials per scene | trials ended in an error |", "|---|---|---|"]
+    out += [f"| {p.name} | {', '.join(sorted({str(len(ts)) for ts in p.trials.values()}))} | "
+            f"{sum(t.termination == 'error' for ts in p.trials.values() for t in ts)} |" for p in policies]
     out.append("")
     for fam in FAMILIES:
         if any(p.family_trials(fam) for p in policies):

@@ -4,7 +4,8 @@
 from the identical scene: their difference is measured trial by trial, which is far less noisy than comparing two
 means whose standard errors each include the scene-to-scene spread.
 
-- Completion: over the common trials, ``a_only`` = trials only A completed, ``b_only`` = only B completed. Under
+- Completion: over the common trials, ``a_only`` = trials only A completed, ``b_only`` = only B completed (a trial
+  that ended in an error, termination "error", is not completed). Under
   "no difference" each discordant trial is equally likely to go either way, so the two-sided exact sign test
   (binomial, p = 0.5 over a_only + b_only trials; McNemar's exact test) gives the p value.
 - Grasp success: the mean and standard error of the per-trial difference GS_A - GS_B over the common trials where

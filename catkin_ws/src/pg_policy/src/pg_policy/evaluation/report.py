@@ -1,6 +1,12 @@
 """What `pushgrasp eval` writes: results.json (config, every trial, per-scene metrics), results.md (a table laid out
 as the paper's Tables I-III: one row per scene, columns C, GS, MN as mean +- standard error) and results.png (bars of
 C and GS per scene with standard-error whiskers). C and GS are shown in percent, MN in pushes.
+
+Trials that ended in an error (termination "error", pg_policy.evaluation.errors) count as not completed. results.md
+then lists the error reasons under the table (one line per distinct reason with its count and first trials) and the
+secondary table has an "errors" column; results.json has, per scene of "summary", "counts" (trials, completed,
+errors) beside the metrics ("errors" there: the fraction of trials that ended in an error), and a top-level "errors"
+list (reason, count, [scene, seed] of each trial); each error trial carries "error", "error_at" and "error_trace".
 """
 
 from __future__ import annotations
@@ -11,6 +17,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from pg_policy.evaluation.errors import ERROR, errors_json, reason_lines
 from pg_policy.evaluation.trials import Stat, TrialRecord, _plain, summarize
 
 METRIC_DOC = (
@@ -57,20 +64,31 @@ def markdown(summary: dict[str, dict[str, Stat]], config: dict[str, Any], trials
     for name, m in summary.items():
         label = f"**{name}**" if name == "all" else name
         lines.append(f"| {label} | {fmt(m['C'], 100)} | {fmt(m['GS'], 100)} | {fmt(m['MN'], 1, 2)} |")
+    errors = reason_lines(trials)
+    if errors:  # before the definitions, so that `pushgrasp eval` prints them with the table
+        n_err = sum(t.termination == ERROR for t in trials)
+        lines += ["", f"**{n_err} of {len(trials)} trials ended in an error** (counted as not completed; reasons, "
+                  "most frequent first):", ""] + errors
     lines += ["", METRIC_DOC, "", "Secondary figures:", "",
-              "| Scene | trials | completed | GS per completion (%) | actions per completed trial | refused per trial "
-              "| ended by failed grasps / action budget |",
-              "|---|---|---|---|---|---|---|"]
+              "| Scene | trials | completed | errors | GS per completion (%) | actions per completed trial "
+              "| refused per trial | ended by failed grasps / action budget |",
+              "|---|---|---|---|---|---|---|---|"]
     for name, m in summary.items():
         ts = [t for t in trials if name == "all" or t.scene == name]
-        n_done = sum(t.completed for t in ts)
+        c = counts(ts)
         fg = sum(t.termination == "failed_grasps" for t in ts)
         ma = sum(t.termination == "max_actions" for t in ts)
-        lines.append(f"| {name} | {len(ts)} | {n_done} | {fmt(m['gs_completed'], 100)} | "
+        lines.append(f"| {name} | {c['trials']} | {c['completed']} | {c['errors']} | {fmt(m['gs_completed'], 100)} | "
                      f"{fmt(m['actions_completed'], 1, 2)} | {fmt(m['refused'], 1, 2)} | {fg} / {ma} |")
     lines += ["", "GS per completion and actions per completed trial are how Xu et al.'s evaluate.py counts "
               "\"grasp success\" and \"motion number\".", ""]
     return "\n".join(lines)
+
+
+def counts(trials: Sequence[TrialRecord]) -> dict[str, int]:
+    """Trials, completed trials and trials that ended in an error."""
+    return {"trials": len(trials), "completed": sum(bool(t.completed) for t in trials),
+            "errors": sum(t.termination == ERROR for t in trials)}
 
 
 def plot(summary: dict[str, dict[str, Stat]], path: Path, title: str) -> Path:
@@ -110,7 +128,10 @@ def write_results(out: Path, trials: Sequence[TrialRecord], config: dict[str, An
     doc = {
         "config": _plain(config),
         "metrics_definition": METRIC_DOC,
-        "summary": {name: {k: _plain(s) for k, s in m.items()} for name, m in summary.items()},
+        "summary": {name: {**{k: _plain(s) for k, s in m.items()},
+                           "counts": counts([t for t in trials if name == "all" or t.scene == name])}
+                    for name, m in summary.items()},
+        "errors": errors_json(trials),
         "trials": [_plain(t.to_dict()) for t in trials],
     }
     paths["json"].write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n", encoding="utf-8")

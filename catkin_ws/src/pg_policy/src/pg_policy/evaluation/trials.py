@@ -29,10 +29,17 @@ Fixed scenes (packed, household, files) are deterministic in PyBullet, so repeat
 would be copies of each other. Each trial therefore places the whole scene with a small seeded rigid motion
 (``jitter_xy`` m uniform translation, ``jitter_yaw`` rad uniform rotation about the scene's centroid; the objects'
 relative poses, i.e. the test case itself, are unchanged). ``jitter_xy = jitter_yaw = 0`` evaluates the exact file.
+
+Errors: an Exception raised while preparing or running a trial (building the scene, making the simulator, the policy's
+reset/act, the simulator's reset/step/observe) ends that trial as a failure with termination "error" and its reason
+(pg_policy.evaluation.errors); the run goes on. Such a trial is not completed (it counts in C as a failure); its
+grasps and pushes before the error count as usual. ``errors`` (per trial: 1 if it ended in an error) is reported
+beside the metrics.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -41,6 +48,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from pg_policy.evaluation.errors import ERROR, mark_error
 from pg_policy.target_loop.limits import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
 from pg_sim.scenes.scene import find_scene, list_scenes, load_scene
 from pg_sim.world.scene_source import GENERATED
@@ -50,6 +58,7 @@ DEFAULT_SEED = MIN_EVAL_SEED
 DEFAULT_JITTER_XY = 0.01  # m
 DEFAULT_JITTER_YAW = math.radians(11.25)  # half of one of the 16 rotation steps
 FAMILIES = ("packed", "household")
+log = logging.getLogger(__name__)
 
 
 class EvalEnv(Protocol):
@@ -90,7 +99,7 @@ class TrialRecord:
     scene: str
     seed: int
     completed: bool = False
-    termination: str = ""  # "completed" | "failed_grasps" | "max_actions"
+    termination: str = ""  # "completed" | "failed_grasps" | "max_actions" | "error"
     grasps: int = 0  # executed grasp attempts
     target_grasps: int = 0
     failed_grasps: int = 0
@@ -99,6 +108,9 @@ class TrialRecord:
     actions: list[dict[str, Any]] = field(default_factory=list)
     wall_s: float = 0.0
     sim_s: float = 0.0
+    error: str | None = None  # termination "error": "ExceptionType: message" (pg_policy.evaluation.errors)
+    error_at: str | None = None  # where it was raised: scene, env.make, policy.act, env.step, worker, ...
+    error_trace: str | None = None  # innermost traceback frames
 
     @property
     def n_actions(self) -> int:
@@ -143,6 +155,7 @@ def scene_metrics(trials: Sequence[TrialRecord]) -> dict[str, Stat]:
         "gs_completed": mean_se(t.grasp_success for t in done if t.grasp_success is not None),
         "actions_completed": mean_se(t.n_actions for t in done),
         "refused": mean_se(t.refused for t in trials),
+        "errors": mean_se(1.0 if t.termination == ERROR else 0.0 for t in trials),  # mean x n = error trials
     }
 
 
@@ -168,44 +181,59 @@ def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: L
     """Run one trial of the protocol (module docstring) and return its record.
 
     `scene` goes to env.reset(scene, seed) unchanged (a name, a YAML path, "random-N" or a SceneSpec); `scene_name`
-    labels the record (default str(scene)). Exceptions of the env or the policy propagate.
+    labels the record (default str(scene)). An Exception of the env or the policy ends the trial with termination
+    "error" (the actions before it kept); KeyboardInterrupt and other BaseExceptions propagate.
     """
     limits = limits or Limits()
     t0 = time.perf_counter()
-    policy.reset(seed)
-    obs = env.reset(scene, seed)
     rec = TrialRecord(scene=scene_name or str(scene), seed=seed)
-    while True:
-        if rec.target_grasps:
-            rec.completed, rec.termination = True, "completed"
-            break
-        if rec.failed_grasps >= limits.max_failed_grasps:
-            rec.termination = "failed_grasps"
-            break
-        if rec.n_actions >= limits.max_actions:
-            rec.termination = "max_actions"
-            break
-        t_act = time.perf_counter()
-        decision = policy.act(obs)
-        think_s = time.perf_counter() - t_act
-        result = env.step(decision.primitive, float(decision.x), float(decision.y), float(decision.z),
-                          float(decision.yaw))
-        if result.refused:
-            rec.refused += 1
-        elif result.primitive == "grasp":
-            rec.grasps += 1
-            if result.target_grasped:
-                rec.target_grasps += 1
+    stage = "policy.reset"
+    try:
+        policy.reset(seed)
+        stage = "env.reset"
+        obs = env.reset(scene, seed)
+        while not _stopped(rec, limits):
+            stage = "policy.act"
+            t_act = time.perf_counter()
+            decision = policy.act(obs)
+            think_s = time.perf_counter() - t_act
+            pose = (float(decision.x), float(decision.y), float(decision.z), float(decision.yaw))
+            stage = "env.step"
+            result = env.step(decision.primitive, *pose)
+            if result.refused:
+                rec.refused += 1
+            elif result.primitive == "grasp":
+                rec.grasps += 1
+                if result.target_grasped:
+                    rec.target_grasps += 1
+                else:
+                    rec.failed_grasps += 1
             else:
-                rec.failed_grasps += 1
-        else:
-            rec.pushes += 1
-        rec.sim_s += float(result.sim_time)
-        rec.actions.append({"index": rec.n_actions, "decision": _plain(decision), "outcome": _plain(result),
-                            "think_s": round(think_s, 4), "note": str(getattr(policy, "last_note", ""))})
-        obs = env.observe()
+                rec.pushes += 1
+            rec.sim_s += float(result.sim_time)
+            rec.actions.append({"index": rec.n_actions, "decision": _plain(decision), "outcome": _plain(result),
+                                "think_s": round(think_s, 4), "note": str(getattr(policy, "last_note", ""))})
+            if not _stopped(rec, limits):  # no observation after the last action: it would not be used
+                stage = "env.observe"
+                obs = env.observe()
+    except Exception as exc:  # DESIGN.md section 8: the trial fails with its reason, the run goes on
+        mark_error(rec, exc, stage)
+        log.warning("%s seed %s: trial ended in an error at %s: %s", rec.scene, seed, stage, rec.error)
     rec.wall_s = time.perf_counter() - t0
     return rec
+
+
+def _stopped(rec: TrialRecord, limits: Limits) -> bool:
+    """Whether the trial is over (completed, too many failed grasps, action budget); sets completed/termination."""
+    if rec.target_grasps:
+        rec.completed, rec.termination = True, "completed"
+    elif rec.failed_grasps >= limits.max_failed_grasps:
+        rec.termination = "failed_grasps"
+    elif rec.n_actions >= limits.max_actions:
+        rec.termination = "max_actions"
+    else:
+        return False
+    return True
 
 
 def check_seed(seed: int, allow_train_seeds: bool = False) -> None:
@@ -310,15 +338,28 @@ def run_plan(make_env: Callable[[], EvalEnv], policy: EvalPolicy, plan: EvalPlan
 
 def run_fresh(make_env: Callable[[], EvalEnv], policy: EvalPolicy, name: str, seed: int,
               plan: EvalPlan) -> TrialRecord:
-    """One trial of `plan` (scene `name`, `seed`) in a fresh environment from `make_env()`."""
-    scene = trial_scene(name, seed, plan.jitter_xy, plan.jitter_yaw)
-    env = make_env()
+    """One trial of `plan` (scene `name`, `seed`) in a fresh environment from `make_env()`. An Exception while
+    building the scene or the environment ends the trial as an error too (see run_trial)."""
+    t0 = time.perf_counter()
+    stage = "scene"
+    try:
+        scene = trial_scene(name, seed, plan.jitter_xy, plan.jitter_yaw)
+        stage = "env.make"
+        env = make_env()
+    except Exception as exc:
+        rec = mark_error(TrialRecord(scene=name, seed=seed), exc, stage)
+        log.warning("%s seed %s: trial ended in an error at %s: %s", name, seed, stage, rec.error)
+        rec.wall_s = time.perf_counter() - t0
+        return rec
     try:
         return run_trial(env, policy, scene, seed, plan.limits, scene_name=name)
     finally:
         close = getattr(env, "close", None)
         if close is not None:
-            close()
+            try:
+                close()
+            except Exception as exc:  # the trial's record stands; a simulator that fails to close is only logged
+                log.warning("%s seed %s: closing the environment failed: %r", name, seed, exc)
 
 
 def summarize(trials: Sequence[TrialRecord]) -> dict[str, dict[str, Stat]]:

@@ -36,7 +36,7 @@ class HeuristicPolicy(PolicyBase):
     def act(self, obs: Any) -> Decision:
         hm = obs.heightmap
         target = observed_target(obs)
-        if target.sum() >= self.planner.p.min_target_cells:
+        if self.planner.visible(target):
             rows, cols = np.nonzero(target)
             self.last_seen = np.array([hm.bounds[0, 0] + (cols.mean() + 0.5) * hm.resolution,
                                        hm.bounds[1, 0] + (rows.mean() + 0.5) * hm.resolution])

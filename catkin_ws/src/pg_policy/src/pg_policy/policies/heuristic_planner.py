@@ -28,6 +28,14 @@ The rule, for a visible target:
 4. Target not visible: grasp (goal-agnostically) the most graspable object, preferring objects near where the target
    was last seen and high ones (something on top of the target), to uncover it.
 Grasps that already failed at the same place and rotation are not repeated within a trial.
+
+Degenerate masks (novel objects, partial views) never raise: no rule reduces over an empty selection.
+- A target of fewer than `min_target_cells` cells (or none, whatever that parameter) is not visible (rule 4).
+- A target mask in pieces far apart (several objects of the target's colour, stray cells) can have its mean between
+  the pieces, so that the window examined around it holds no target cell: the rules then work on the mask's largest
+  connected piece (`focus`). A rule that still finds no target cell in its window returns None (no action).
+- Last resort (`fallback`), when no rule gives an action: a random push from a random occupied cell (keeps the trial
+  moving).
 """
 
 from __future__ import annotations
@@ -144,9 +152,12 @@ class HeuristicPlanner:
 
     # -- push ----------------------------------------------------------------------------------------------------
     def best_push(self, hm: Heightmap, target: np.ndarray, cells: CellWindow) -> Action | None:
-        """Best push of the target out of the clutter (module docstring, rule 2), or None if no start is free."""
+        """Best push of the target out of the clutter (module docstring, rule 2), or None if no start is free or no
+        target cell lies in the window `cells`."""
         p, prims = self.p, self.g.primitives
         t = target[cells.slice].reshape(-1)
+        if not t.any():  # nothing to push here (the target's extent along each direction would be undefined)
+            return None
         occ = (cells.h > p.occupied) & ~dilate(target, 1)[cells.slice].reshape(-1)
         t_xy, o_xy, o_h = cells.xy[t], cells.xy[occ], cells.h[occ]
         c = t_xy.mean(axis=0)
@@ -287,23 +298,49 @@ class HeuristicPlanner:
         return Action("push", int(rng.integers(self.rotations)), int(r), int(c), -1e9, "fallback: random push")
 
     # -- top level -------------------------------------------------------------------------------------------------
+    def visible(self, target: np.ndarray) -> bool:
+        """Whether the target mask counts as visible: at least `min_target_cells` cells, and at least one."""
+        n = int(target.sum())
+        return n > 0 and n >= self.p.min_target_cells
+
+    @staticmethod
+    def largest_piece(target: np.ndarray) -> np.ndarray:
+        """The largest 8-connected piece of the non-empty (H, W) bool mask."""
+        import cv2
+
+        n, labels, stats, _ = cv2.connectedComponentsWithStats(target.astype(np.uint8), connectivity=8)
+        if n <= 2:
+            return target
+        return labels == 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+
+    def focus(self, hm: Heightmap, target: np.ndarray) -> tuple[np.ndarray, CellWindow, np.ndarray]:
+        """(target, window, other objects' cells) the rules work on for a visible target: the whole mask, or its
+        largest piece when the window around the whole mask holds no target cell (pieces far apart: module
+        docstring)."""
+        cells, others = self.around(hm, target)
+        if not target[cells.slice].any():
+            target = self.largest_piece(target)
+            cells, others = self.around(hm, target)
+        return target, cells, others
+
     def push_of(self, hm: Heightmap, target: np.ndarray) -> Action | None:
         """The rule's push of a visible target (rule 2) whether or not a grasp is free; None when the target has
         fewer than `min_target_cells` cells or no push start is free. Used to guide exploration in training."""
-        if int(target.sum()) < self.p.min_target_cells:
+        if not self.visible(target):
             return None
-        return self.best_push(hm, target, self.around(hm, target)[0])
+        target, cells, _ = self.focus(hm, target)
+        return self.best_push(hm, target, cells)
 
     def grasp_of(self, hm: Heightmap, target: np.ndarray) -> Action | None:
         """The rule's free grasp of a visible target (rule 1), None when there is none or the target has fewer than
         `min_target_cells` cells. Used to guide exploration in training."""
-        if int(target.sum()) < self.p.min_target_cells:
+        if not self.visible(target):
             return None
-        cells, others = self.around(hm, target)
+        target, cells, others = self.focus(hm, target)
         return self.best_grasp(hm, target, others, cells, [])
 
     def around(self, hm: Heightmap, target: np.ndarray) -> tuple[CellWindow, np.ndarray]:
-        """The examined window around a visible target and the (H, W) bool cells of other objects."""
+        """The examined window around a visible (non-empty) target and the (H, W) bool cells of other objects."""
         return self.jaw.around(hm, target)
 
     def guide(self, primitive: str, hm: Heightmap, target: np.ndarray) -> Action | None:
@@ -316,8 +353,9 @@ class HeuristicPlanner:
 
         pushes_in_row: pushes since the last grasp (from `declutter_after` on, a blocking neighbour may be removed).
         """
-        if int(target.sum()) >= self.p.min_target_cells:
-            cells, others = self.around(hm, target)
+        visible = self.visible(target)
+        if visible:
+            target, cells, others = self.focus(hm, target)
             act = self.remove_on_top(hm, target, tabu)
             if act is None:
                 act = self.best_grasp(hm, target, others, cells, tabu)
