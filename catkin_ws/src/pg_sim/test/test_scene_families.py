@@ -51,6 +51,8 @@ def test_training_families_draw_training_objects_only(family):
 def test_same_seed_same_scene_and_block_families_unchanged():
     assert sample_family("novel-10", 1_000_003) == sample_family("novel-10", 1_000_003)
     assert sample_family("novel-10", 1_000_003) != sample_family("novel-10", 1_000_004)
+    names = lambda fam: [o.name.split("-", 1)[1] for o in sample_family(fam, 1_000_003).objects]  # noqa: E731
+    assert names("novel-10")[:8] != names("novel-packed-8")  # families do not share their draws
     from pg_sim.world.random_scene import sample_drops
 
     assert sample_family("random-10", 7) == sample_drops(10, 7)

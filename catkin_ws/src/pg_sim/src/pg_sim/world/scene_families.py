@@ -14,12 +14,14 @@
 Catalogue objects (pg_sim.objects.catalog) are drawn kind first (uniform over the kinds), then an id of that kind in
 the family's split, so every kind is equally likely whatever its number of ids. Object 0 is the target (green); the
 others take the other palette colours. Objects are named ``obj<i>-<kind>-<index>`` (``obj<i>-<shape>`` for blocks),
-so records name the target's kind. The same name and seed give the same scene.
+so records name the target's kind. The same name and seed give the same scene; another name (family or N) with
+the same seed draws other objects.
 """
 
 from __future__ import annotations
 
 import re
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -78,7 +80,7 @@ def sample_family(name: str, seed: int, target: str = "green") -> SceneSpec:
     fam = FAMILIES[family_name]
     if fam.split is None:
         return sample_drops(n, seed, target, half_extent=fam.half_extent)  # as block scenes always were
-    rng = np.random.default_rng([seed, 0x0B1EC7])
+    rng = np.random.default_rng([seed, zlib.crc32(name.encode())])  # families with the same seed draw differently
     ids = object_ids(fam.split)
     others = [c for c in COLORS if c != target]
     objects: list[ObjectSpec] = []
