@@ -112,3 +112,10 @@ def test_every_kind_builds_in_pybullet():
             assert abs(p.getDynamicsInfo(body, -1, physicsClientId=client)[0] - spec.mass) < 1e-9
     finally:
         p.disconnect(client)
+
+
+def test_pybullet_meshes_lose_their_materials():
+    # a texture (the torus has a multicoloured one, green included) would override the scene's colour
+    spec = object_spec("named/torus", (1, 2, 3), (0,) * 6, "o")
+    text = open(spec.mesh).read()
+    assert "mtllib" not in text and "usemtl" not in text and text.count("\nf ") > 100

@@ -105,6 +105,18 @@ def _write_parts(path: Path, parts: list[trimesh.Trimesh]) -> None:
     tmp.replace(path)
 
 
+def _untextured(path: Path) -> Path:
+    """A cached copy of a pybullet_data .obj without its material lines: textured meshes (the torus) would otherwise
+    keep their texture's colours (green patches among them) whatever colour the scene gives them."""
+    out = cache_dir("objects") / f"pybullet-{path.parent.name}-{path.stem}-v{MESH_VERSION}.obj"
+    if not out.exists():
+        lines = path.read_text(encoding="utf-8", errors="replace").splitlines(keepends=True)
+        tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
+        tmp.write_text("".join(ln for ln in lines if not ln.startswith(("mtllib", "usemtl"))))
+        tmp.replace(out)
+    return out
+
+
 @lru_cache(maxsize=256)
 def _mesh_volume(path: Path) -> float:
     return mesh_volume(load_obj(path))
@@ -123,6 +135,7 @@ def object_spec(object_id: str, color: tuple[int, int, int], pose: Pose, name: s
         else:
             named = NAMED[index]
             path, scale, density = data_path(named.file), named.scale, named.density
+        path = _untextured(path)
         volume = _mesh_volume(path) * float(np.prod(scale))
         mass = float(np.clip(volume * density, *MASS_RANGE))
     return ObjectSpec(shape="mesh", size=None, color=color, pose=pose, mesh=str(path), target=target, name=name,
