@@ -7,6 +7,8 @@ then lists the error reasons under the table (one line per distinct reason with 
 secondary table has an "errors" column; results.json has, per scene of "summary", "counts" (trials, completed,
 errors) beside the metrics ("errors" there: the fraction of trials that ended in an error), and a top-level "errors"
 list (reason, count, [scene, seed] of each trial); each error trial carries "error", "error_at" and "error_trace".
+Trials of the catalogue families (novel-N, ...) also get rows per kind of target (pg_policy.evaluation.target_kinds):
+a table at the end of results.md and "by_target_kind" in results.json.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from pg_policy.evaluation.errors import ERROR, errors_json, reason_lines
+from pg_policy.evaluation.target_kinds import by_kind, kind_lines
 from pg_policy.evaluation.trials import Stat, TrialRecord, _plain, summarize
 
 METRIC_DOC = (
@@ -82,7 +85,7 @@ def markdown(summary: dict[str, dict[str, Stat]], config: dict[str, Any], trials
                      f"{fmt(m['actions_completed'], 1, 2)} | {fmt(m['refused'], 1, 2)} | {fg} / {ma} |")
     lines += ["", "GS per completion and actions per completed trial are how Xu et al.'s evaluate.py counts "
               "\"grasp success\" and \"motion number\".", ""]
-    return "\n".join(lines)
+    return "\n".join(lines + kind_lines(trials))
 
 
 def counts(trials: Sequence[TrialRecord]) -> dict[str, int]:
@@ -132,6 +135,8 @@ def write_results(out: Path, trials: Sequence[TrialRecord], config: dict[str, An
                            "counts": counts([t for t in trials if name == "all" or t.scene == name])}
                     for name, m in summary.items()},
         "errors": errors_json(trials),
+        "by_target_kind": [{"scene": scene, "kind": kind, **{k: _plain(s) for k, s in m.items()}}
+                           for (scene, kind), m in by_kind(trials).items()],
         "trials": [_plain(t.to_dict()) for t in trials],
     }
     paths["json"].write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n", encoding="utf-8")

@@ -1,0 +1,81 @@
+"""Results per kind of target (thin, rod, rolling, concave, small, wide, blob, named, block) for the generated
+families of catalogue objects (novel-N, novel-packed-N, mixed-N, train-...).
+
+A trial's target is object 0 of its generated scene, which depends only on (scene, seed): the kind is recomputed from
+them (pg_sim.world.scene_families, no physics), so records written before need nothing extra. Scenes that are not
+catalogue families (random-N, dense-N, fixed scenes) have no kind rows.
+
+``python -m pg_policy.evaluation.target_kinds results.json [...]`` prints the table of saved runs.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Sequence
+from functools import lru_cache
+from pathlib import Path
+
+from pg_policy.evaluation.trials import Stat, TrialRecord, scene_metrics
+from pg_sim.world.scene_families import FAMILIES, parse_generated, sample_family, target_kind
+
+
+@lru_cache(maxsize=4096)
+def target_kind_of(scene: str, seed: int) -> str | None:
+    """The kind of the target of trial (scene, seed), None when the scene is not a catalogue family."""
+    parsed = parse_generated(scene)
+    if parsed is None or FAMILIES[parsed[0]].split is None:
+        return None
+    return target_kind(sample_family(scene, seed).target_object.name)
+
+
+def by_kind(trials: Sequence[TrialRecord]) -> dict[tuple[str, str], dict[str, Stat]]:
+    """{(scene, kind): C, GS, MN, ...} over the trials whose scene is a catalogue family, kinds sorted per scene."""
+    groups: dict[tuple[str, str], list[TrialRecord]] = {}
+    for t in trials:
+        kind = target_kind_of(t.scene, int(t.seed))
+        if kind is not None:
+            groups.setdefault((t.scene, kind), []).append(t)
+    return {key: scene_metrics(groups[key]) for key in sorted(groups)}
+
+
+def kind_lines(trials: Sequence[TrialRecord]) -> list[str]:
+    """Markdown table of `by_kind` (empty list when no trial is in a catalogue family)."""
+    table = by_kind(trials)
+    if not table:
+        return []
+    lines = ["By kind of target (C and GS in %, MN in pushes; n = trials):", "",
+             "| Scene | target kind | n | C (%) | GS (%) | MN |", "|---|---|---|---|---|---|"]
+    for (scene, kind), m in table.items():
+        lines.append(f"| {scene} | {kind} | {m['C'].n} | {_fmt(m['C'], 100)} | {_fmt(m['GS'], 100)} | "
+                     f"{_fmt(m['MN'], 1, 2)} |")
+    return lines + [""]
+
+
+def _fmt(stat: Stat, scale: float = 1.0, digits: int = 1) -> str:
+    if stat.mean is None:
+        return "n/a"
+    se = "n/a" if stat.se is None else f"{stat.se * scale:.{digits}f}"
+    return f"{stat.mean * scale:.{digits}f} ± {se}"
+
+
+def load_trials(path: Path) -> list[TrialRecord]:
+    """The trials of a results.json written by `pushgrasp eval`."""
+    fields = set(TrialRecord.__dataclass_fields__)
+    doc = json.loads(Path(path).read_text(encoding="utf-8"))
+    return [TrialRecord(**{k: v for k, v in t.items() if k in fields}) for t in doc["trials"]]
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    paths = list(argv if argv is not None else sys.argv[1:])
+    if not paths:
+        print("usage: python -m pg_policy.evaluation.target_kinds results.json [...]", file=sys.stderr)
+        return 2
+    for path in paths:
+        print(f"## {path}\n")
+        print("\n".join(kind_lines(load_trials(Path(path)))) or "(no catalogue-family trials)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
