@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import json
 
-from pg_policy.evaluation.report import write_results
-from pg_policy.evaluation.target_kinds import by_kind, kind_lines, load_trials, target_kind_of
+from pg_policy.evaluation.report import kind_lines, write_results
+from pg_policy.evaluation.target_kinds import by_kind, load_trials, target_kind_of
 from pg_policy.evaluation.trials import TrialRecord
 from pg_sim.world.scene_families import sample_family, target_kind
 

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from pg_policy.evaluation.errors import ERROR, errors_json, reason_lines
-from pg_policy.evaluation.target_kinds import by_kind, kind_lines
+from pg_policy.evaluation.target_kinds import by_kind
 from pg_policy.evaluation.trials import Stat, TrialRecord, _plain, summarize
 
 METRIC_DOC = (
@@ -86,6 +86,19 @@ def markdown(summary: dict[str, dict[str, Stat]], config: dict[str, Any], trials
     lines += ["", "GS per completion and actions per completed trial are how Xu et al.'s evaluate.py counts "
               "\"grasp success\" and \"motion number\".", ""]
     return "\n".join(lines + kind_lines(trials))
+
+
+def kind_lines(trials: Sequence[TrialRecord]) -> list[str]:
+    """Markdown table of the per-target-kind metrics (empty list when no trial is in a catalogue family)."""
+    table = by_kind(trials)
+    if not table:
+        return []
+    lines = ["By kind of target (C and GS in %, MN in pushes; n = trials):", "",
+             "| Scene | target kind | n | C (%) | GS (%) | MN |", "|---|---|---|---|---|---|"]
+    for (scene, kind), m in table.items():
+        lines.append(f"| {scene} | {kind} | {m['C'].n} | {fmt(m['C'], 100)} | {fmt(m['GS'], 100)} | "
+                     f"{fmt(m['MN'], 1, 2)} |")
+    return lines + [""]
 
 
 def counts(trials: Sequence[TrialRecord]) -> dict[str, int]:

@@ -39,26 +39,6 @@ def by_kind(trials: Sequence[TrialRecord]) -> dict[tuple[str, str], dict[str, St
     return {key: scene_metrics(groups[key]) for key in sorted(groups)}
 
 
-def kind_lines(trials: Sequence[TrialRecord]) -> list[str]:
-    """Markdown table of `by_kind` (empty list when no trial is in a catalogue family)."""
-    table = by_kind(trials)
-    if not table:
-        return []
-    lines = ["By kind of target (C and GS in %, MN in pushes; n = trials):", "",
-             "| Scene | target kind | n | C (%) | GS (%) | MN |", "|---|---|---|---|---|---|"]
-    for (scene, kind), m in table.items():
-        lines.append(f"| {scene} | {kind} | {m['C'].n} | {_fmt(m['C'], 100)} | {_fmt(m['GS'], 100)} | "
-                     f"{_fmt(m['MN'], 1, 2)} |")
-    return lines + [""]
-
-
-def _fmt(stat: Stat, scale: float = 1.0, digits: int = 1) -> str:
-    if stat.mean is None:
-        return "n/a"
-    se = "n/a" if stat.se is None else f"{stat.se * scale:.{digits}f}"
-    return f"{stat.mean * scale:.{digits}f} ± {se}"
-
-
 def load_trials(path: Path) -> list[TrialRecord]:
     """The trials of a results.json written by `pushgrasp eval`."""
     fields = set(TrialRecord.__dataclass_fields__)
@@ -71,6 +51,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not paths:
         print("usage: python -m pg_policy.evaluation.target_kinds results.json [...]", file=sys.stderr)
         return 2
+    from pg_policy.evaluation.report import kind_lines
+
     for path in paths:
         print(f"## {path}\n")
         print("\n".join(kind_lines(load_trials(Path(path)))) or "(no catalogue-family trials)")
