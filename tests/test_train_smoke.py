@@ -195,7 +195,14 @@ def test_a_scene_list_takes_its_families_in_turn(tmp_path):
 def test_a_bad_scene_list_is_refused_before_anything_is_written(tmp_path, capsys, scene):
     out = tmp_path / "run"
     assert main(["train", "--stage", "grasp-agnostic", "--out", str(out), "--scene", scene]) == 2
-    assert "is not random-N or dense-N" in capsys.readouterr().err and not out.exists()
+    assert "is not a generated family" in capsys.readouterr().err and not out.exists()
+
+
+@pytest.mark.parametrize("scene", ["novel-10", "dense-8,novel-packed-8", "mixed-15"])
+def test_held_out_objects_are_never_trained_on(tmp_path, capsys, scene):
+    out = tmp_path / "run"
+    assert main(["train", "--stage", "grasp-agnostic", "--out", str(out), "--scene", scene]) == 2
+    assert "held-out objects" in capsys.readouterr().err and not out.exists()
 
 
 @pytest.mark.parametrize("device", ["gpu", "mps", "cuda:7"])
