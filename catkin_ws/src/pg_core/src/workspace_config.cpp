@@ -73,6 +73,17 @@ class Reader {
     return out;
   }
 
+  // parent[key] when it is there, else `fallback`; malformed values fail as for a required key.
+  double optionalNumber(const YAML::Node& parent, const std::string& key, const std::string& where,
+                        double fallback) const {
+    return parent.IsMap() && parent[key].IsDefined() ? number(parent, key, where) : fallback;
+  }
+  template <std::size_t N>
+  std::array<double, N> optionalNumbers(const YAML::Node& parent, const std::string& key, const std::string& where,
+                                        const std::array<double, N>& fallback) const {
+    return parent.IsMap() && parent[key].IsDefined() ? numbers<N>(parent, key, where) : fallback;
+  }
+
   std::string text(const YAML::Node& parent, const std::string& key, const std::string& where) const {
     const YAML::Node node = child(parent, key, where);
     if (!node.IsScalar() || node.Scalar().empty()) fail("'" + where + key + "' must be a non-empty string");
@@ -231,6 +242,16 @@ WorkspaceConfig WorkspaceConfig::fromNode(const YAML::Node& root, const std::str
   r.requirePositive(prim.push_speed, p + "push_speed");
   r.requirePositive(prim.waypoint_step, p + "waypoint_step");
   r.requirePositive(prim.time_budget, p + "time_budget");
+  prim.grasp_low_heights = r.optionalNumbers<2>(pr, "grasp_low_heights", p, {0.0, 0.0});
+  prim.grasp_low_fraction = r.optionalNumber(pr, "grasp_low_fraction", p, 0.0);
+  prim.grasp_low_min_z = r.optionalNumber(pr, "grasp_low_min_z", p, 0.0);
+  if (!(0.0 <= prim.grasp_low_heights[0] && prim.grasp_low_heights[0] <= prim.grasp_low_heights[1])) {
+    r.fail("'" + p + "grasp_low_heights' must be [lo, hi] heights with 0 <= lo <= hi (m)");
+  }
+  if (!(prim.grasp_low_fraction >= 0.0 && prim.grasp_low_fraction <= 1.0)) {
+    r.fail("'" + p + "grasp_low_fraction' must lie in [0, 1]");
+  }
+  r.requireNonNegative(prim.grasp_low_min_z, p + "grasp_low_min_z");
 
   const YAML::Node gr = r.child(root, "gripper", "");
   c.gripper_.max_opening = r.number(gr, "max_opening", "gripper.");

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "pg_core/workspace_config.h"
@@ -114,6 +115,11 @@ TEST(WorkspaceConfig, LoadsTheSharedConfigFile) {
 
   EXPECT_DOUBLE_EQ(p.transit_height, 0.30);
   EXPECT_DOUBLE_EQ(p.push_speed, 0.1);
+  // Low objects take their own grasp z (docs/ARCHITECTURE.md); 20 mm and taller keep DESIGN section 4's rule.
+  EXPECT_DOUBLE_EQ(p.grasp_low_heights[0], 0.002);
+  EXPECT_DOUBLE_EQ(p.grasp_low_heights[1], 0.02);
+  EXPECT_DOUBLE_EQ(p.grasp_low_fraction, 0.35);
+  EXPECT_DOUBLE_EQ(p.grasp_low_min_z, 0.0015);
 
   EXPECT_DOUBLE_EQ(c.gripper().max_opening, 0.085);
   EXPECT_GT(c.gripper().tcp_offset, 0.0);
@@ -165,6 +171,40 @@ TEST(WorkspaceConfig, MinimalConfigIsValid) {
   EXPECT_EQ(c.rows(), 10);
   EXPECT_EQ(c.rotations(), 8);
   EXPECT_EQ(c.worldFrame(), "world");
+}
+
+TEST(WorkspaceConfig, LowGraspKeysAreOptionalAndChecked) {
+  const PrimitiveParams off = WorkspaceConfig::fromString(withoutKey("")).primitives();
+  EXPECT_DOUBLE_EQ(off.grasp_low_heights[0], 0.0);  // absent: an empty range, the section 4 rule everywhere
+  EXPECT_DOUBLE_EQ(off.grasp_low_heights[1], 0.0);
+  EXPECT_DOUBLE_EQ(off.grasp_low_fraction, 0.0);
+  EXPECT_DOUBLE_EQ(off.grasp_low_min_z, 0.0);
+
+  const auto with = [](const std::string& lines) {
+    std::string text = withoutKey("");
+    text.replace(text.find("primitives:\n"), 12, "primitives:\n" + lines);
+    return text;
+  };
+  const PrimitiveParams on =
+      WorkspaceConfig::fromString(
+          with("  grasp_low_heights: [0.002, 0.02]\n  grasp_low_fraction: 0.35\n  grasp_low_min_z: 0.0015\n"))
+          .primitives();
+  EXPECT_DOUBLE_EQ(on.grasp_low_heights[0], 0.002);
+  EXPECT_DOUBLE_EQ(on.grasp_low_heights[1], 0.02);
+  EXPECT_DOUBLE_EQ(on.grasp_low_fraction, 0.35);
+  EXPECT_DOUBLE_EQ(on.grasp_low_min_z, 0.0015);
+
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"  grasp_low_heights: [0.02, 0.002]\n", "'primitives.grasp_low_heights' must be [lo, hi]"},
+      {"  grasp_low_heights: [-0.001, 0.02]\n", "'primitives.grasp_low_heights' must be [lo, hi]"},
+      {"  grasp_low_heights: [0.002]\n", "'primitives.grasp_low_heights' must be a list of 2 numbers"},
+      {"  grasp_low_heights: [abc, 0.02]\n", "'primitives.grasp_low_heights[0]' must be a finite number"},
+      {"  grasp_low_fraction: 1.5\n", "'primitives.grasp_low_fraction' must lie in [0, 1]"},
+      {"  grasp_low_min_z: -0.001\n", "'primitives.grasp_low_min_z' must be >= 0"},
+  };
+  for (const auto& [line, want] : bad) {
+    EXPECT_NE(errorOf(with(line)).find(want), std::string::npos) << line << " -> " << errorOf(with(line));
+  }
 }
 
 TEST(WorkspaceConfig, MissingKeyIsNamed) {

@@ -42,7 +42,7 @@ struct PointXY {
 // `primitives:` section (DESIGN.md section 4). Field names are the YAML keys.
 struct PrimitiveParams {
   double approach_height = 0.0;  // pre-pose above the action point (m)
-  double grasp_depth = 0.0;      // grasp z = max(h - grasp_depth, grasp_min_z) (m)
+  double grasp_depth = 0.0;      // grasp z = max(h - grasp_depth, grasp_min_z) outside grasp_low_heights (m)
   double grasp_min_z = 0.0;      // (m)
   double lift_height = 0.0;      // lift after closing (m)
   double push_length = 0.0;      // push travel along yaw (m)
@@ -54,6 +54,12 @@ struct PrimitiveParams {
   double push_speed = 0.0;       // tool speed while pushing (m/s)
   double waypoint_step = 0.0;    // Cartesian interpolation step (m)
   double time_budget = 0.0;      // seconds per primitive before it is aborted (s)
+  // Low objects (pg_core.action_geometry.grasp_z_for_height): a local height h in [grasp_low_heights[0],
+  // grasp_low_heights[1]) takes grasp z = max(grasp_low_fraction * h, grasp_low_min_z). Optional keys; absent = an
+  // empty range (the DESIGN section 4 rule everywhere).
+  std::array<double, 2> grasp_low_heights{};  // [lo, hi) (m), 0 <= lo <= hi
+  double grasp_low_fraction = 0.0;            // in [0, 1]
+  double grasp_low_min_z = 0.0;               // (m), >= 0
 };
 
 // `gripper:` section, the part the controller needs.

@@ -125,6 +125,12 @@ class PrimitiveSpec:
     # an object or the table, as a real arm's force limit would; 0 = descend to the planned z regardless. Optional
     # in the YAML (0 when absent).
     grasp_stop_force: float = 0.0
+    # Low objects (pg_core.action_geometry.grasp_z_for_height): local heights h in [lo, hi) m take the fingertip z
+    # max(grasp_low_fraction * h, grasp_low_min_z) instead of max(h - grasp_depth, grasp_min_z). Optional in the
+    # YAML; absent = an empty range, the DESIGN section 4 rule everywhere.
+    grasp_low_heights: tuple[float, float] = (0.0, 0.0)
+    grasp_low_fraction: float = 0.0
+    grasp_low_min_z: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -209,6 +215,23 @@ def _robot(raw: dict) -> RobotSpec:
     )
 
 
+def _check_low_grasp(prims: PrimitiveSpec) -> None:
+    """ValueError naming the key unless the low-object grasp keys hold 0 <= lo <= hi, a fraction in [0, 1] and a
+    z >= 0."""
+    lo, hi = prims.grasp_low_heights
+    checks = {
+        "grasp_low_heights": (0.0 <= lo <= hi, f"must be [lo, hi] heights with 0 <= lo <= hi (m), got [{lo}, {hi}]"),
+        "grasp_low_fraction": (isinstance(prims.grasp_low_fraction, int | float)
+                               and 0.0 <= prims.grasp_low_fraction <= 1.0,
+                               f"must lie in [0, 1], got {prims.grasp_low_fraction!r}"),
+        "grasp_low_min_z": (isinstance(prims.grasp_low_min_z, int | float) and prims.grasp_low_min_z >= 0.0,
+                            f"must be a height >= 0 m, got {prims.grasp_low_min_z!r}"),
+    }
+    for key, (ok, what) in checks.items():
+        if not ok:
+            raise ValueError(f"geometry config: 'primitives.{key}' {what}")
+
+
 def parse(raw: dict, path: Path) -> Geometry:
     """Build a Geometry from the parsed YAML mapping; raises ValueError naming the bad key."""
     ws = _section(raw, "workspace", Workspace, {"x": 2, "y": 2, "z": 2})
@@ -221,10 +244,11 @@ def parse(raw: dict, path: Path) -> Geometry:
         cols=int(round((ws.x[1] - ws.x[0]) / res)),
     )
     frames = _get(raw, "frames", "")
-    primitives = _section(raw, "primitives", PrimitiveSpec, {})
+    primitives = _section(raw, "primitives", PrimitiveSpec, {"grasp_low_heights": 2})
     if not isinstance(primitives.grasp_stop_force, int | float) or primitives.grasp_stop_force < 0:
         raise ValueError(f"geometry config: 'primitives.grasp_stop_force' must be a force >= 0 N (0 = off), "
                          f"got {primitives.grasp_stop_force!r}")
+    _check_low_grasp(primitives)
     return Geometry(
         path=path,
         world_frame=str(_get(frames, "world", "frames.")),

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pg_core.action_geometry import grasp_z, push_z
+from pg_core.action_geometry import grasp_z, grasp_z_for_height, push_z
 from pg_core.geometry import Geometry
 from pg_core.heightmap import Heightmap, world_to_pixel
 from pg_core.palette import PALETTE
@@ -197,7 +197,7 @@ class HeuristicPlanner:
             moving = corridor & (s_o >= back - a - delta - p.margin)
             keep = ~moving
             post = self.grasp_fit(t_xy + travel * d, o_xy[keep], o_h[keep], end, yaw + math.pi / 2,
-                                  max(float(np.median(cells.h[t])) - prims.grasp_depth, prims.grasp_min_z))
+                                  grasp_z_for_height(float(np.median(cells.h[t])), prims))
             post_ok = post is not None and post[0] >= 0
             post_clear = min(post[0], 0.02) if post_ok else 0.0  # type: ignore[index]
             score = (2.0 * post_ok + 20.0 * post_clear + min(free_run, travel) / prims.push_length
