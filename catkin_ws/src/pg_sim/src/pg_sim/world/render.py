@@ -42,12 +42,7 @@ def render_scene_png(world: World, out: Path, title: str | None = None) -> Path:
     name = world.scene.name if world.scene else "scene"
     visible = int((labels == target).sum()) if target is not None else 0
     fig.suptitle(title or f"{name}: {len(world.objects)} objects, target visible in {visible} heightmap cells")
-    fig.tight_layout()
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out)
-    plt.close(fig)
-    return out
+    return _save(fig, out)
 
 
 def target_visible_cells(world: World) -> int:
@@ -87,9 +82,16 @@ def render_gallery_png(family: str, seeds: list[int], out: Path) -> Path:
             for ax in row:
                 ax.set_xticks([])
                 ax.set_yticks([])
-    fig.tight_layout()
+    return _save(fig, out)
+
+
+def _save(fig: object, out: Path) -> Path:
+    """Lay out, write (folders made) and close a matplotlib figure; returns the path."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()  # type: ignore[attr-defined]
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out)
-    plt.close(fig)
+    fig.savefig(out)  # type: ignore[attr-defined]
+    plt.close(fig)  # type: ignore[arg-type]
     return out
