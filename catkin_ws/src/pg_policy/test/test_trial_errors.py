@@ -16,7 +16,7 @@ from pg_policy.cli.main import main
 from pg_policy.decision.decision import Decision
 from pg_policy.environment.sim_env import StepResult
 from pg_policy.evaluation.errors import ERROR_CHARS, describe
-from pg_policy.evaluation.pool import run_parallel
+from pg_policy.evaluation.ray_trials import run_on_ray
 from pg_policy.evaluation.report import write_results
 from pg_policy.evaluation.trials import EvalPlan, Limits, TrialRecord, run_plan, run_trial, scene_metrics, summarize
 
@@ -178,18 +178,25 @@ def _trial(index, name, seed, plan):
     return index, TrialRecord(name, seed, True, "completed", 1, 1, 0, 0, 0, [{}])
 
 
-def test_pool_keeps_finished_trials_when_a_worker_dies_or_a_job_raises():
+@pytest.fixture
+def importable_here(monkeypatch):
+    """Ray workers import this module's _init and _trial by name: its folder goes on their PYTHONPATH."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH")) if p))
+
+
+def test_ray_keeps_finished_trials_when_a_worker_dies_or_a_job_raises(importable_here):
     jobs = [("a", s) for s in (10, DIE, RAISE, 13, 14, 15)]
     seen: list[TrialRecord] = []
-    recs = run_parallel(jobs, None, 2, _trial, _init, (), seen.append)
+    recs = run_on_ray(jobs, None, 2, _trial, _init, (), seen.append)
     assert [r.seed for r in recs] == [10, DIE, RAISE, 13, 14, 15] and len(seen) == 6
     assert [r.termination for r in recs] == ["completed", "error", "error", "completed", "completed", "completed"]
     assert recs[1].error_at == "worker" and recs[1].error.startswith("process died running this trial")
     assert (recs[2].error_at, recs[2].error) == ("worker", "RuntimeError: record lost on the way back")
 
 
-def test_pool_whose_workers_cannot_start_ends_every_trial_as_an_error():
-    recs = run_parallel([("a", s) for s in (1, 2, 3)], None, 2, _trial, _init, (True,))
+def test_ray_whose_workers_cannot_start_ends_every_trial_as_an_error(importable_here):
+    recs = run_on_ray([("a", s) for s in (1, 2, 3)], None, 2, _trial, _init, (True,))
     assert [r.termination for r in recs] == ["error"] * 3
     assert all(r.error.startswith("process died before starting its trial") for r in recs)
 
@@ -223,7 +230,8 @@ class RaisingPolicy(HeuristicPolicy):
 
 @pytest.fixture
 def raising_plugin(tmp_path, monkeypatch):
-    """The policy `test-raising`, registered as an installed plugin on sys.path (spawned workers inherit it)."""
+    """The policy `test-raising`, registered as an installed plugin on sys.path and on the PYTHONPATH of Ray's
+    workers."""
     site = tmp_path / "site"
     info = site / "pg_test_raising-0.1.dist-info"
     info.mkdir(parents=True)
@@ -231,6 +239,7 @@ def raising_plugin(tmp_path, monkeypatch):
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: pg-test-raising\nVersion: 0.1\n")
     (info / "entry_points.txt").write_text("[pushgrasp.policies]\ntest-raising = pg_test_raising:RaisingPolicy\n")
     monkeypatch.syspath_prepend(str(site))
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(p for p in (str(site), os.environ.get("PYTHONPATH")) if p))
     monkeypatch.setenv("PG_TEST_RAISE_SEED", "1000001")
     return tmp_path
 
@@ -250,7 +259,7 @@ def _check_raised(doc):
 def test_cli_eval_records_a_raising_policy_and_writes_the_results(raising_plugin, capsys):
     out = raising_plugin / "ev"
     assert _eval(out) == 0
-    assert {p.name for p in out.iterdir()} == {"results.json", "results.md", "results.png"}
+    assert {p.name for p in out.iterdir()} == {"results.json", "results.md", "results.png", "trials.jsonl"}
     doc = json.loads((out / "results.json").read_text())
     assert [t["seed"] for t in doc["trials"]] == [1_000_000, 1_000_001, 1_000_002]
     _check_raised(doc)

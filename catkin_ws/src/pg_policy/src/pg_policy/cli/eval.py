@@ -4,7 +4,10 @@ results (pg_policy.evaluation.report). Heavy modules (pybullet, torch) are impor
 Errors (unknown policy, unknown scene, missing model file, a training seed) end the command with status 2 and one
 line on stderr (pg_policy.cli.main.main). An error inside a trial (the policy or the simulator raising, a worker
 process dying) does not: that trial ends with termination "error" and its reason, the run goes on, and the results
-are written with the errors counted and listed (pg_policy.evaluation.errors, pg_policy.evaluation.pool).
+are written with the errors counted and listed (pg_policy.evaluation.errors, pg_policy.evaluation.ray_trials).
+
+Every finished trial goes to OUT/trials.jsonl as it ends (pg_policy.evaluation.journal): after Ctrl-C or a lost
+machine, the same command runs only the missing trials; the results cover them all.
 """
 
 from __future__ import annotations
@@ -54,8 +57,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                          f"{math.degrees(DEFAULT_JITTER_YAW)})")
     options.add_arguments(ev)  # the declared policy options: --grasp-threshold, --rules, --grasp-check, ...
     ev.add_argument("--device", default="cpu", help="torch device of learned policies (default cpu)")
-    ev.add_argument("--workers", type=int, default=1,
-                    help="parallel simulator processes (default 1); results do not depend on it")
+    ev.add_argument("--workers", type=int, default=None,
+                    help="trials run at once: N > 1 starts a local Ray with N workers (default 1: in this "
+                         "process; with --ray-address: one per CPU of the cluster); results do not depend on it")
+    ev.add_argument("--ray-address", default=None,
+                    help="run the workers on a Ray cluster: auto (the cluster started on this machine with "
+                         "`ray start --head`) or HOST:PORT of its head (docs/CLUSTER.md)")
+    ev.add_argument("--fresh", action="store_true",
+                    help="discard the finished trials of an earlier run in --out (default: a re-run of the same "
+                         "command resumes from OUT/trials.jsonl)")
     ev.add_argument("--no-progress", action="store_true", help="no progress bar")
     ev.set_defaults(run=_run)
 
@@ -88,22 +98,29 @@ def _worker_trial(index: int, name: str, seed: int, plan: Any) -> tuple[int, Any
     return index, run_fresh(SimEnv, _WORKER["policy"], name, seed, plan)
 
 
-def run_trials(policy: str, opts: Any, plan: Any, workers: int, on_trial: Any = None) -> list[Any]:
-    """All trials of `plan` (in plan order) with `workers` processes (1 = in this process); `on_trial(record)` is
-    called as each finishes. Every trial runs in a fresh SimEnv, so the records do not depend on `workers`.
-    A trial that raises, or whose worker process dies, is an error record; the others are kept
-    (pg_policy.evaluation.pool)."""
-    from pg_policy.evaluation.trials import run_plan
-
-    if workers <= 1:
+def run_trials(policy: str, opts: Any, plan: Any, jobs: list[tuple[str, int]], workers: int,
+               on_trial: Any = None, address: str | None = None, on_start: Any = None) -> list[Any]:
+    """Records of `jobs` ((scene, seed) pairs of `plan`) in job order: in this process (`workers` 1, no `address`)
+    or on Ray actors (pg_policy.evaluation.ray_trials; `workers` 0 with an address = one per cluster CPU).
+    `on_trial(record)` is called as each finishes. Every trial runs in a fresh SimEnv, so the records do not depend
+    on `workers`. A trial that raises, or whose worker dies twice, is an error record; the others are kept."""
+    if workers == 1 and address is None:
         from pg_policy.environment.sim_env import SimEnv
+        from pg_policy.evaluation.trials import run_fresh
         from pg_policy.policies.registry import make_policy
 
-        return run_plan(SimEnv, make_policy(policy, opts), plan, on_trial)
-    from pg_policy.evaluation.pool import run_parallel
+        local = make_policy(policy, opts)
+        out = []
+        for name, seed in jobs:
+            out.append(run_fresh(SimEnv, local, name, seed, plan))
+            if on_trial is not None:
+                on_trial(out[-1])
+        return out
+    from pg_policy.evaluation.ray_trials import run_on_ray
 
-    return run_parallel(plan.jobs(), plan, workers, _worker_trial, _worker_init,
-                        (policy, opts, worker_threads(workers)), on_trial)
+    threads = worker_threads(workers) if address is None else 1
+    return run_on_ray(jobs, plan, workers, _worker_trial, _worker_init, (policy, opts, threads), on_trial,
+                      address=address, on_start=on_start)
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -114,6 +131,7 @@ def _run(args: argparse.Namespace) -> int:
     from pg_core.geometry import load as load_geometry
     from pg_policy.decision.rules.pipeline import RulePipeline
     from pg_policy.evaluation.errors import reason_lines
+    from pg_policy.evaluation.journal import TrialJournal, file_digests
     from pg_policy.evaluation.report import git_commit, write_results
     from pg_policy.evaluation.trials import EvalPlan, Limits, check_seed, expand_scenes
     from pg_policy.models.device import check_device
@@ -124,6 +142,9 @@ def _run(args: argparse.Namespace) -> int:
     check_device(args.device)
     if args.trials < 1:
         raise ValueError(f"--trials must be >= 1, got {args.trials}")
+    workers = args.workers if args.workers is not None else (0 if args.ray_address else 1)
+    if workers < 0 or (workers == 0 and not args.ray_address):
+        raise ValueError(f"--workers must be >= 1 (0 = one per cluster CPU, with --ray-address), got {workers}")
     if args.jitter_xy < 0 or args.jitter_yaw < 0:
         raise ValueError("--jitter-xy and --jitter-yaw must be >= 0")
     scenes = expand_scenes(args.scenes)
@@ -150,27 +171,49 @@ def _run(args: argparse.Namespace) -> int:
         "jitter_xy_m": args.jitter_xy, "jitter_yaw_deg": args.jitter_yaw, "options": dict(opts.overrides),
         "rules": None if rules is None else rules.specs(),
         "geometry_config": str(geometry.path), "primitives": asdict(geometry.primitives),
-        "git_commit": git_commit(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "workers": args.workers,
-        "host_cpus": os.cpu_count(),
+        "model_sha256": file_digests([str(p) for p in opts.models]),
+        "git_commit": git_commit(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "workers": workers,
+        "host_cpus": os.cpu_count(), "ray": args.ray_address,
     }
-    done: list[Any] = []
-    bar = tqdm(total=len(plan.jobs()), desc=f"eval {policy_name}", unit="trial", disable=args.no_progress)
+    jobs = plan.jobs()
+    journal = TrialJournal(args.out, config, fresh=args.fresh)
+    pending = journal.pending(jobs)
+    config["resumed_trials"] = len(jobs) - len(pending)
+    done: list[Any] = journal.records(jobs)
+    if done:
+        print(f"resuming: {len(done)} of {len(jobs)} trials are in {journal.path} (--fresh discards them)")
+    bar = tqdm(total=len(jobs), initial=len(done), desc=f"eval {policy_name}", unit="trial",
+               disable=args.no_progress)
+    t0 = time.perf_counter()
+    ran = [0]
+
+    def on_start(info: Any, actors: int) -> None:
+        print(f"Ray: {actors} workers on {info.address} ({info.nodes} nodes, {info.cpus} CPUs)")
 
     def on_trial(rec: Any) -> None:
+        journal.add(rec)
+        ran[0] += 1
         done.append(rec)
         graspers = [t.grasp_success for t in done if t.grasp_success is not None]
         gs = f"{100 * sum(graspers) / len(graspers):.0f}%" if graspers else "n/a"
         n_err = sum(t.termination == "error" for t in done)
         errs = f" errors {n_err}" if n_err else ""
-        bar.set_postfix_str(f"C {100 * sum(t.completed for t in done) / len(done):.0f}% GS {gs}{errs} "
-                            f"last {rec.scene}")
+        rate = 60 * ran[0] / max(1e-9, time.perf_counter() - t0)
+        bar.set_postfix_str(f"{rate:.1f} trials/min C {100 * sum(t.completed for t in done) / len(done):.0f}% "
+                            f"GS {gs}{errs} last {rec.scene}")
         bar.update(1)
 
-    t0 = time.perf_counter()
     try:
-        trials = run_trials(worker_policy, opts, plan, args.workers, on_trial)
+        run_trials(worker_policy, opts, plan, [jobs[i] for i in pending], workers, on_trial, args.ray_address,
+                   on_start)
+    except KeyboardInterrupt:
+        bar.close()
+        print(f"interrupted: {len(journal.done)} of {len(jobs)} trials are kept in {journal.path}; the same command "
+              "resumes the run")
+        raise
     finally:
         bar.close()
+    trials = journal.records(jobs)
     config["wall_s"] = round(time.perf_counter() - t0, 1)
     paths = write_results(args.out, trials, config)
     print(paths["md"].read_text(encoding="utf-8").split("\n\nC: ")[0])  # the table and the error reasons
