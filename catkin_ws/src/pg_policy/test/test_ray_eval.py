@@ -118,3 +118,18 @@ def test_a_bad_ray_address_fails_fast_with_a_clear_error(tmp_path, capsys, addre
 def test_workers_must_be_positive_without_a_cluster(tmp_path, capsys):
     assert main([*ARGS, "--out", str(tmp_path / "x"), "--workers", "0"]) == 2
     assert "--workers must be >= 1" in capsys.readouterr().err
+
+
+def test_model_files_travel_to_nodes_that_lack_them(tmp_path):
+    from pg_policy.cli.eval import local_models, model_blobs
+    from pg_policy.policies.policy import PolicyOptions
+
+    (tmp_path / "grasp.pt").write_bytes(b"g" * 10)
+    (tmp_path / "push.pt").write_bytes(b"p" * 5)
+    opts = PolicyOptions(models=(tmp_path / "grasp.pt", tmp_path / "push.pt"))
+    blobs = model_blobs(opts.models)
+    assert local_models(opts, blobs) is opts  # here the files exist
+    missing = PolicyOptions(models=(tmp_path / "gone" / "grasp.pt", tmp_path / "gone" / "push.pt"))
+    there = local_models(missing, blobs)
+    assert [p.name for p in there.models] == ["grasp.pt", "push.pt"]
+    assert [p.read_bytes() for p in there.models] == [b"g" * 10, b"p" * 5]

@@ -80,7 +80,27 @@ def worker_threads(workers: int, cpus: int | None = None) -> int:
     return max(1, (cpus or os.cpu_count() or 1) // max(1, workers))
 
 
-def _worker_init(policy: str, opts: Any, threads: int) -> None:
+def model_blobs(paths: Any) -> tuple[tuple[str, bytes], ...]:
+    """(file name, bytes) of each model file, for workers on other machines."""
+    return tuple((Path(p).name, Path(p).read_bytes()) for p in paths)
+
+
+def local_models(opts: Any, blobs: tuple[tuple[str, bytes], ...]) -> Any:
+    """`opts` with its model files as they are here, or, when one is missing on this machine (a cluster node
+    without the driver's files), with the copies in `blobs` written to a fresh temporary folder."""
+    from dataclasses import replace
+
+    if not blobs or all(Path(p).is_file() for p in opts.models):
+        return opts
+    import tempfile
+
+    folder = Path(tempfile.mkdtemp(prefix="pg_models_"))
+    for name, data in blobs:
+        (folder / name).write_bytes(data)
+    return replace(opts, models=tuple(folder / name for name, _ in blobs))
+
+
+def _worker_init(policy: str, opts: Any, threads: int, blobs: tuple[tuple[str, bytes], ...] = ()) -> None:
     import cv2
     import torch
 
@@ -88,6 +108,7 @@ def _worker_init(policy: str, opts: Any, threads: int) -> None:
 
     torch.set_num_threads(threads)
     cv2.setNumThreads(threads)
+    opts = local_models(opts, blobs)
     _WORKER["policy"] = make_policy(policy, opts)
 
 
@@ -119,7 +140,8 @@ def run_trials(policy: str, opts: Any, plan: Any, jobs: list[tuple[str, int]], w
     from pg_policy.evaluation.ray_trials import run_on_ray
 
     threads = worker_threads(workers) if address is None else 1
-    return run_on_ray(jobs, plan, workers, _worker_trial, _worker_init, (policy, opts, threads), on_trial,
+    blobs = model_blobs(opts.models) if address is not None else ()  # the driver's models travel to the nodes
+    return run_on_ray(jobs, plan, workers, _worker_trial, _worker_init, (policy, opts, threads, blobs), on_trial,
                       address=address, on_start=on_start)
 
 
