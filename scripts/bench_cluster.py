@@ -170,8 +170,8 @@ def report(res: dict) -> str:
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, required=True, help="directory for runs, logs and the report")
-    p.add_argument("--scenes", nargs="+", default=["packed", "random-10"],
-                   help="eval scenes (default packed random-10)")
+    p.add_argument("--scenes", nargs="+", default=["packed", "household", "random-10", "random-15", "random-20"],
+                   help="eval scenes (default: the protocol's 16, packed household random-10 random-15 random-20)")
     p.add_argument("--trials", type=int, default=2, help="eval trials per scene (default 2)")
     p.add_argument("--workers", type=int, nargs="+", default=[1, 2], help="eval workers to compare (default 1 2)")
     p.add_argument("--collectors", type=int, nargs="+", default=[0, 1, 2], help="collectors to compare (default 0 1 2)")
