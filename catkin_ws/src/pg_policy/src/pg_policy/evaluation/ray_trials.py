@@ -8,14 +8,14 @@ trial is seeded and starts from a fresh simulator), so the results equal the ser
 
 Failures (an Exception inside a trial is already a record, pg_policy.evaluation.trials):
   - a job that raises outside the trial (e.g. its record cannot be sent back): an error record, stage "worker";
-  - an actor that dies while running a trial (killed, out of memory, a crash in native code, its node lost): the
-    actor is replaced and the trial runs once more; dying a second time records it as an error (stage "worker",
-    WORKER_DIED and Ray's reason);
+  - an actor that dies while running a trial (killed, out of memory, a crash in native code, its node lost): a
+    replacement starts in the background while the other actors go on, and the trial runs once more (first in
+    line); dying a second time records it as an error (stage "worker", WORKER_DIED and Ray's reason);
   - an actor whose `init` raises: the workers cannot start; every unfinished trial is recorded as an error with
     that reason (the run ends with what it has instead of looping);
-  - no actor starting within `start_timeout_s` (the cluster has no free CPU): the slot is dropped; with no actor
-    at the start, TimeoutError; with none left later, WorkersLost (a ConnectionError; the finished trials were
-    already handed to `on_trial`).
+  - no actor starting within `start_timeout_s` (the cluster has no free CPU): that actor is given up; with no
+    actor at the start, TimeoutError; with none left later, WorkersLost (a ConnectionError; the finished trials
+    were already handed to `on_trial`), so the run goes on with fewer actors as long as one is alive.
 Every wait is bounded (``ray.wait`` polls every `poll_s` s, so Ctrl-C is seen at once); KeyboardInterrupt
 propagates, and leaving the Ray session stops the actors.
 """
@@ -23,6 +23,7 @@ propagates, and leaving the Ray session stops the actors.
 from __future__ import annotations
 
 import os
+import time
 from collections import deque
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -138,6 +139,8 @@ def run_on_ray(jobs: Sequence[tuple[str, int]], plan: Any, workers: int, trial_f
     `workers` actors on a local Ray of `workers` CPUs, or on the cluster at `address` (`workers` 0 = one per CPU of
     the cluster). `on_trial(record)` is called in the driver as each trial finishes; `on_start(info, actors)` once
     the actors are up. `trial_fn` and `init` must be importable by the workers (module functions)."""
+    if not jobs:
+        return []
     with ray_session(max(1, workers), address) as info:
         import ray
 
@@ -156,27 +159,36 @@ def run_on_ray(jobs: Sequence[tuple[str, int]], plan: Any, workers: int, trial_f
                                f"({info.cpus} CPUs in the cluster, all busy?)")
         if on_start is not None:
             on_start(info, len(actors))
-        for actor in actors:
-            if queue:
-                run.submit(actor, queue.popleft())
-        while run.inflight:
-            ready, _ = ray.wait(list(run.inflight), num_returns=1, timeout=POLL_S)
-            if not ready:
-                continue
-            i, actor, died = run.collect(ready[0])
-            if died:
-                if run.results[i] is None:
-                    queue.appendleft(i)  # its second run goes first
-                try:
-                    fresh = run.start(1)
-                except _CannotStart as exc:
-                    fresh = []
-                    print(f"[eval] a replacement Ray worker could not start: {exc}")
-                actor = fresh[0] if fresh else None
-            if actor is not None and queue:
-                run.submit(actor, queue.popleft())
-            if queue and not run.inflight:
+        idle = list(actors)
+        starting: dict[Any, tuple[Any, float]] = {}  # ready() ref of a replacement -> (actor, start time)
+        while queue or run.inflight:
+            while idle and queue:
+                run.submit(idle.pop(), queue.popleft())
+            if queue and not run.inflight and not starting:
                 left = sum(r is None for r in run.results)
                 raise WorkersLost(f"every Ray worker died or could not be replaced; {left} trials did not run: "
-                                   "the finished ones are kept, run the same command again to resume")
+                                  "the finished ones are kept, run the same command again to resume")
+            ready, _ = ray.wait([*run.inflight, *starting], num_returns=1, timeout=POLL_S)
+            for ref in ready:
+                if ref in starting:
+                    actor, _ = starting.pop(ref)
+                    try:
+                        ray.get(ref, timeout=start_timeout_s)
+                        idle.append(actor)
+                    except ray.exceptions.RayActorError as exc:
+                        print(f"[eval] a replacement Ray worker could not start: {describe(_cause(exc))}")
+                    continue
+                i, actor, died = run.collect(ref)
+                if not died:
+                    idle.append(actor)
+                    continue
+                if run.results[i] is None:
+                    queue.appendleft(i)  # its second run goes first
+                replacement = actor_cls.remote(init, initargs, trial_fn)  # started in the background
+                starting[replacement.ready.remote()] = (replacement, time.monotonic())
+            for ref, (actor, t0) in list(starting.items()):
+                if time.monotonic() - t0 > start_timeout_s:  # e.g. the cluster lost the node's CPUs
+                    print(f"[eval] a replacement Ray worker did not start within {start_timeout_s:.0f} s")
+                    ray.kill(actor)
+                    del starting[ref]
         return [r for r in run.results if r is not None]
