@@ -59,6 +59,12 @@ class TrainConfig:
     threads: int = _f(2, "torch CPU threads")
     device: str = _f("cpu", "torch device of the nets: cpu | cuda | cuda:N (the simulator always runs on the CPU)")
     rotations: int = _f(16, "rotations of the heightmap (paper: 16)")
+    collectors: int = _f(0, "Ray collector actors that play episodes in parallel and stream transitions to this "
+                            "learner (0 = act and learn in this process, the paper's loop)")
+    ray_address: str | None = _f(None, "Ray cluster to run the collectors on: auto or HOST:PORT of the head (None: "
+                                       "a local Ray of collectors + 1 CPUs)")
+    weights_every: int = _f(10, "learner updates between weight broadcasts to the collectors: the collectors act "
+                                "with weights up to this many updates old")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -68,7 +74,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         kind = f.type if isinstance(f.type, type) else str
         name = "--" + f.name.replace("_", "-")
         extra = {"choices": f.metadata["choices"]} if "choices" in f.metadata else {}
-        conv = {"Path": Path, "Path | None": Path, "int": int, "float": float, "str": str}.get(str(f.type), kind)
+        conv = {"Path": Path, "Path | None": Path, "int": int, "float": float, "str": str,
+                "str | None": str}.get(str(f.type), kind)
         parser.add_argument(name, type=conv, default=default, help=f"{f.metadata['help']} (default: {default})",
                             **extra)
 
@@ -79,6 +86,12 @@ def from_args(args: argparse.Namespace) -> TrainConfig:
         raise ValueError(f"training seed {cfg.seed} must be in [0, {TRAIN_SEED_LIMIT}) (evaluation seeds are above)")
     scene_list(cfg.scene)
 
+    if cfg.collectors < 0:
+        raise ValueError(f"--collectors {cfg.collectors}: must be >= 0 (0 = act and learn in this process)")
+    if cfg.weights_every < 1:
+        raise ValueError(f"--weights-every {cfg.weights_every}: must be >= 1 (learner updates between broadcasts)")
+    if cfg.ray_address is not None and cfg.collectors == 0:
+        raise ValueError(f"--ray-address {cfg.ray_address!r} needs --collectors N >= 1 (the serial loop runs no Ray)")
     check_device(cfg.device)
     return cfg
 

@@ -1,90 +1,110 @@
 """Self-supervised training loop of the paper: act in the simulator, label the executed pixel, learn, repeat.
 
-One iteration = observe -> masked Q maps -> epsilon-greedy decision -> execute -> reward (with hindsight
-relabelling) -> store in prioritised replay -> Huber loss on the executed pixel (grasps also at rotation r + R/2)
-for the new transition batched with `replay_samples` replayed ones -> log. Checkpoints (nets, optimisers, counters, RNG
-state; the replay lives on disk) every `checkpoint_every` iterations: rerunning the same command resumes.
+One iteration = one transition from a collector (`pg_policy.training.collector`: observe -> masked Q maps ->
+epsilon-greedy decision -> execute -> reward with hindsight relabelling) -> store in prioritised replay -> Huber loss
+on the executed pixel (grasps also at rotation r + R/2) for the new transition batched with `replay_samples` replayed
+ones -> log. One learner update per environment step, whoever played it.
+
+`Trainer` is the learner: nets, optimisers, replay, checkpoints, log.csv, on `--device`. Its transitions come from
+- `--collectors 0` (default): one Collector in this process that shares the learner's nets and random generator and
+  steps when asked, so the run is the paper's serial loop (act with the latest weights, learn, next action) and
+  draws its random numbers in the same order as before the split;
+- `--collectors N`: N Ray actors (`pg_policy.training.ray_collectors`) that play in parallel with CPU copies of the
+  nets, refreshed every `weights_every` updates; the learner takes their transitions in arrival order, so a
+  transition is acted with weights about weights_every + N updates old at most when collectors are equally fast
+  (off-policy lag, `pg_policy.training.ray_collectors`; Q-learning from replay tolerates it).
+Checkpoints (nets, optimisers, counters, RNG state; the replay lives on disk) every `checkpoint_every` iterations and
+on Ctrl-C: rerunning the same command resumes, and collectors restart from the checkpointed weights with episode
+numbers after the highest one started before. The `collector` column of log.csv names the collector of each row.
 """
 
 from __future__ import annotations
 
 import csv
 import json
+import signal
+import threading
 import time
-from dataclasses import dataclass
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any, Protocol
 
 import numpy as np
 import torch
 
 from pg_core.geometry import load
 from pg_core.heightmap import Heightmap
-from pg_core.target_mask import MIN_VISIBLE_CELLS, target_mask
 from pg_policy.environment.sim_env import SimEnv
 from pg_policy.models.device import check_device
 from pg_policy.models.model_io import ModelLoadError, load_qnet
 from pg_policy.models.nets.registry import get_backbone
-from pg_policy.perception import scene_change
-from pg_policy.policies.heuristic_planner import HeuristicPlanner
-from pg_policy.training import qtensor, rewards
+from pg_policy.training import qtensor
 from pg_policy.training.checkpoint import load_checkpoint
-from pg_policy.training.config import TrainConfig, scene_list
+from pg_policy.training.collector import ROLES, Collector, LocalCollector
+from pg_policy.training.config import TrainConfig
 from pg_policy.training.curves import plot_curves
 from pg_policy.training.experience_replay import ReplayBuffer, Transition
-from pg_policy.training.stages import STAGES, choose_primitive, epsilon, explore_action
+from pg_policy.training.stages import STAGES
 
-# explored: 0 = greedy, 1 = uniformly random, 2 = the heuristic's push or free grasp (guided exploration)
+# explored: 0 = greedy, 1 = uniformly random, 2 = the heuristic's push or free grasp (guided exploration);
+# collector: index of the collector that played the row (0 in the serial loop)
 LOG_FIELDS = ["iteration", "episode", "primitive", "rotation", "row", "col", "q", "explored", "reward", "grasped",
-              "success", "epsilon", "loss", "sim_s", "wall_s"]
+              "success", "epsilon", "loss", "sim_s", "wall_s", "collector"]
+
+StateDicts = dict[str, dict[str, torch.Tensor]]
 
 
-@dataclass(frozen=True)
-class Action:
-    """One chosen action: primitive, rotation index, heightmap cell; pose (x, y, z, yaw) in `world` m / rad;
-    explored: 0 greedy, 1 random, 2 guided; epsilon of the iteration; q: the Q maps it was chosen on (None for a
-    random grasp); grasp_max: masked max of Q_g over the goal (nan without maps); goal: (H, W) bool goal mask and its
-    colour name (None: goal-agnostic)."""
+class Source(Protocol):
+    """Where transitions come from: LocalCollector (serial) or RayCollectors."""
 
-    primitive: str
-    rotation: int
-    row: int
-    col: int
-    pose: tuple[float, float, float, float]
-    explored: int
-    epsilon: float
-    q: dict[str, np.ndarray] | None
-    grasp_max: float
-    goal: np.ndarray
-    goal_color: str | None
+    def __enter__(self) -> Source: ...
+
+    def __exit__(self, *exc: object) -> None: ...
+
+    def next(self, iteration: int) -> tuple[Transition, dict[str, Any], int]: ...
+
+    def broadcast(self, state_dicts: StateDicts, iteration: int) -> None: ...
 
 
 class Trainer:
-    """Owns the env, the two nets, their optimisers and replay buffers for one stage of one run directory."""
+    """The learner of one stage of one run directory: the two nets, their optimisers and replay buffers; with
+    `collectors == 0` also the in-process Collector (`collector`, its simulator `env`)."""
 
     def __init__(self, cfg: TrainConfig) -> None:
         torch.set_num_threads(cfg.threads)
         torch.manual_seed(cfg.seed)
         self.cfg = cfg
-        self.scenes_ = scene_list(cfg.scene)  # training scene families, one per episode in turn
         self.device = check_device(cfg.device)
         self.geo = load()
         self.stage = STAGES[cfg.stage]
         self.dir = Path(cfg.out) / cfg.stage
         self.dir.mkdir(parents=True, exist_ok=True)
-        self.nets = {role: qtensor.build(cfg, role).to(self.device) for role in ("grasp", "push")}
+        self.nets = {role: qtensor.build(cfg, role).to(self.device) for role in ROLES}
         self.opts = {role: torch.optim.Adam(net.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
                      for role, net in self.nets.items()}
         shape = (self.geo.heightmap.rows, self.geo.heightmap.cols)
         self.replay = {role: ReplayBuffer(self.dir / f"replay_{role}", cfg.replay_capacity, shape)
                        for role in self.stage.trains}
-        self.iteration, self.episode = 0, 0
+        self.iteration = 0
+        self.episode = 0  # the highest episode number started by any collector (checkpointed)
         self.rng = np.random.default_rng(cfg.seed)
         self._restore()
-        self.env = SimEnv(self.geo)
-        self.guide = None
-        if cfg.guided_exploration > 0 and not self.stage.goal_agnostic:
-            self.guide = HeuristicPlanner(self.geo)
+        self.collector: Collector | None = None
+        self.env: SimEnv | None = None
+        if cfg.collectors == 0:  # the serial loop: acts with these nets and draws from this generator
+            self.collector = Collector(cfg, 0, 1, self.episode, nets=self.nets, rng=self.rng, geo=self.geo)
+            self.env = self.collector.env
         self.log_ = self.dir / "log.csv"
+
+    # -- the serial collector's episodes (kept for callers of the single-process trainer) ----------------------
+    def _reset(self, draws: int = 10) -> Any:
+        assert self.collector is not None, "no in-process collector (collectors > 0)"
+        return self.collector._reset(draws)
+
+    def _episode_over(self, obs: Any = None) -> bool:
+        assert self.collector is not None, "no in-process collector (collectors > 0)"
+        return self.collector._episode_over(obs)
 
     # -- checkpoints -------------------------------------------------------------------------------------------
     def _restore(self) -> None:
@@ -178,120 +198,6 @@ class Trainer:
             first.setdefault(k, abs(values[i] - labels[k]))
         return float(loss.detach()), [first[k] for k in range(len(batch))]
 
-    # -- acting ------------------------------------------------------------------------------------------------
-    def _goal(self, obs) -> tuple[np.ndarray, str | None]:
-        """(goal mask, goal colour). Goal-agnostic: every object cell."""
-
-        if self.stage.goal_agnostic:
-            return obs.heightmap.valid & (obs.heightmap.height > 0.01), None
-        return target_mask(obs.heightmap.color, obs.heightmap.valid, obs.target), obs.target
-
-    def _pick_target(self) -> None:
-        if self.stage.goal_agnostic:
-            return
-        colors = self.env.object_colors()
-        unique = [c for c in colors if colors.count(c) == 1]
-        if unique:
-            self.env.retarget(unique[int(self.rng.integers(len(unique)))])
-
-    def _reset(self, draws: int = 10) -> object:
-        """A new episode: the next training scene; goal-conditioned stages draw again (up to `draws` scenes) while
-        the picked target is not visible at all (a policy cannot act on a target it does not see)."""
-        for _ in range(draws):
-            self.episode += 1
-            seed = (self.cfg.seed * 100_003 + self.episode) % 1_000_000
-            self.env.reset(self.scenes_[(self.episode - 1) % len(self.scenes_)], seed=seed)
-            self._pick_target()
-            self.ep_ = {"actions": 0, "failed": 0, "pushes": 0, "in_row": 0}
-            obs = self.env.observe()
-            if not self._episode_over(obs):
-                break
-        return obs
-
-    def _episode_over(self, obs=None) -> bool:
-        """Budget spent, scene empty, or (goal-conditioned stages) the target gone or not visible in `obs`: an
-        action on an empty goal mask has no target to learn about (its push region and change region are empty)."""
-
-        ep, cfg = self.ep_, self.cfg
-        if ep["actions"] >= cfg.max_actions or ep["failed"] >= cfg.max_failed_grasps:
-            return True
-        if len(self.env.world.objects) == 0:
-            return True
-        if self.stage.goal_agnostic:
-            return False
-        if not self.env.target_present():
-            return True
-        return obs is not None and int(self._goal(obs)[0].sum()) < MIN_VISIBLE_CELLS
-
-    def step(self, obs) -> tuple[dict, object]:
-        """One iteration of the paper's loop (act, execute, label, learn); returns (log row, next observation)."""
-        action = self.act(obs)
-        result = self.env.step(action.primitive, *action.pose)
-        self.ep_["actions"] += 1
-        nxt = self.env.observe()
-        transition, success = self.label(obs, action, result, nxt)
-        loss = self.learn_from(transition)
-        q = action.q[action.primitive][action.rotation, action.row, action.col] if action.q is not None else None
-        row_log = {"iteration": self.iteration, "episode": self.episode, "primitive": action.primitive,
-                   "rotation": action.rotation, "row": action.row, "col": action.col,
-                   "explored": int(action.explored), "q": round(float(q), 4) if q is not None else "",
-                   "reward": transition.reward, "grasped": int(result.grasped), "success": int(success),
-                   "epsilon": round(action.epsilon, 3), "loss": round(loss, 5), "sim_s": round(result.sim_time, 2)}
-        return row_log, nxt
-
-    def act(self, obs) -> Action:
-        """Epsilon-greedy (optionally guided) choice of primitive, rotation and cell on the masked Q maps."""
-        cfg, hm = self.cfg, obs.heightmap
-        goal, goal_color = self._goal(obs)
-        eps = epsilon(self.iteration, cfg.epsilon_start, cfg.epsilon_end, cfg.epsilon_decay)
-        explored = bool(self.rng.random() < eps)
-        if explored and not self.stage.uses_push:  # a random grasp needs no Q maps: skip the forward pass
-            q, gmax = None, float("nan")
-        else:
-            q = qtensor.q_maps(self.nets, hm, goal, ("grasp", "push") if self.stage.uses_push else ("grasp",))
-            gmax = qtensor.masked_max(q["grasp"], goal)
-        threshold = cfg.early_grasp_threshold if self.stage.name == "push" else cfg.grasp_threshold
-        primitive = choose_primitive(self.stage, gmax, self.ep_["pushes"], threshold, cfg.max_pushes,
-                                     self.ep_["in_row"], cfg.push_budget)
-        self.ep_["in_row"] = self.ep_["in_row"] + 1 if primitive == "push" else 0
-        region = goal if primitive == "grasp" else qtensor.push_region(goal, self.geo)
-        guided = None
-        if explored and self.guide is not None and self.rng.random() < cfg.guided_exploration:
-            guided = self.guide.guide(primitive, hm, goal)
-        if guided is not None:
-            rot, row, col, explored = guided.rotation, guided.row, guided.col, 2
-        elif explored:
-            rot, row, col = explore_action(self.rng, region, cfg.rotations)
-        else:
-            rot, row, col = qtensor.masked_argmax(q[primitive], region)
-        pose = qtensor.action_pose(hm, primitive, rot, row, col, self.geo)
-        return Action(primitive, rot, row, col, pose, int(explored), eps, q, gmax, goal, goal_color)
-
-    def label(self, obs, action: Action, result, nxt) -> tuple[Transition, bool]:
-        """The transition and its reward (DESIGN.md section 7; grasps relabelled in hindsight), and whether the
-        action succeeded."""
-
-        hm, goal = obs.heightmap, action.goal
-        rot, row, col = action.rotation, action.row, action.col
-        if action.primitive == "grasp":
-            # hindsight relabelling: the goal of this grasp is the object under the executed pixel
-            pixel_color = qtensor.color_at(hm, row, col)
-            reward = rewards.grasp_reward(result.grasped_color is not None and result.grasped_color == pixel_color)
-            success = result.target_grasped if action.goal_color else result.grasped_color is not None
-            self.ep_["failed"] += 0 if success else 1
-            mask = target_mask(hm.color, hm.valid, pixel_color) if pixel_color else goal
-            return Transition(hm.color, hm.height, mask, "grasp", rot, row, col, reward), success
-        self.ep_["pushes"] += 1
-        nmask = target_mask(nxt.heightmap.color, nxt.heightmap.valid, obs.target)
-        q_after = qtensor.q_maps(self.nets, nxt.heightmap, nmask, ("grasp",))
-        changed = scene_change.scene_changed(hm, nxt.heightmap, goal, radius_m=scene_change.PUSH_CHANGE_RADIUS_M)
-        occ = [rewards.occupancy_ratio(h, m, 0.05, 0.01) for h, m in ((hm, goal), (nxt.heightmap, nmask))]
-        reward = rewards.push_reward(action.grasp_max, qtensor.masked_max(q_after["grasp"], nmask), changed, occ[0],
-                                     occ[1])
-        t = Transition(hm.color, hm.height, goal, "push", rot, row, col, reward, nxt.heightmap.color,
-                       nxt.heightmap.height, nmask, done=False)
-        return t, reward > 0
-
     def learn_from(self, t: Transition) -> float:
         """Store the transition in its prioritised replay and take one gradient step on it batched with replayed
         ones (priorities updated from the new TD errors); the loss, 0.0 for a primitive this stage does not train."""
@@ -305,42 +211,97 @@ class Trainer:
             buf.update_priority(i, td)
         return loss
 
+    # -- the run -----------------------------------------------------------------------------------------------
+    def weights(self) -> StateDicts:
+        """The nets' state dicts on the CPU (what collectors act with)."""
+        return {r: {k: v.detach().cpu() for k, v in n.state_dict().items()} for r, n in self.nets.items()}
+
+    def _source(self) -> Source:
+        if self.collector is not None:
+            return LocalCollector(self.collector)
+        from pg_policy.training.ray_collectors import RayCollectors  # imports Ray: only when collectors > 0
+
+        return RayCollectors(self.cfg, self.cfg.collectors, self.cfg.ray_address, weights=self.weights(),
+                             iteration=self.iteration, first_episode=self.episode)
+
+    def _log_fields(self) -> list[str]:
+        """LOG_FIELDS, or the header of an existing log.csv of an earlier version (its rows keep its columns)."""
+        if self.log_.exists() and self.log_.stat().st_size > 0:
+            with self.log_.open(newline="") as f:
+                return next(csv.reader(f), LOG_FIELDS)
+        return LOG_FIELDS
+
     def run(self) -> Path:
+        """Train until cfg.iterations (or cfg.minutes); returns the checkpoint. Ctrl-C saves a checkpoint of the
+        learner between two updates and re-raises KeyboardInterrupt: transitions in flight in the collectors (and
+        the serial collector's unfinished action) are lost, the run resumes from the checkpoint."""
         from tqdm import tqdm
 
         cfg = self.cfg
-        new_log = not self.log_.exists()
+        new_log = not self.log_.exists() or self.log_.stat().st_size == 0  # empty: a run stopped before its 1st row
+        fields = self._log_fields()
         start, wall0 = self.iteration, time.perf_counter()
         recent: list[int] = []
-        with self.log_.open("a", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=LOG_FIELDS)
+        source = self._source()
+        with source, self.log_.open("a", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=fields, extrasaction="ignore")
             if new_log:
                 writer.writeheader()
-            obs = self._reset()
             bar = tqdm(total=cfg.iterations, initial=self.iteration, desc=f"train {self.stage.name}", unit="it")
-            while self.iteration < cfg.iterations:
-                if cfg.minutes and time.perf_counter() - wall0 > cfg.minutes * 60:
-                    print(f"[train] wall-clock budget of {cfg.minutes} min reached")
-                    break
-                row, obs = self.step(obs)
-                row["wall_s"] = round(time.perf_counter() - wall0, 1)
-                writer.writerow(row)
-                if row["primitive"] == "grasp":
-                    recent = (recent + [row["success"]])[-100:]
-                self.iteration += 1
-                bar.update(1)
-                bar.set_postfix(grasp_success=f"{np.mean(recent):.2f}" if recent else "-", eps=row["epsilon"])
-                if self._episode_over(obs):
-                    obs = self._reset()
-                if self.iteration % cfg.checkpoint_every == 0:
-                    f.flush()
-                    self.save()
-            bar.close()
+            try:
+                while self.iteration < cfg.iterations:
+                    if cfg.minutes and time.perf_counter() - wall0 > cfg.minutes * 60:
+                        print(f"[train] wall-clock budget of {cfg.minutes} min reached")
+                        break
+                    transition, row, index = source.next(self.iteration)
+                    with _deferred_interrupt():  # one update, its log row, checkpoint and broadcast: all or none
+                        row.update(iteration=self.iteration, loss=round(self.learn_from(transition), 5),
+                                   wall_s=round(time.perf_counter() - wall0, 1), collector=index)
+                        writer.writerow(row)
+                        self.episode = max(self.episode, int(row["episode"]))
+                        if row["primitive"] == "grasp":
+                            recent = (recent + [row["success"]])[-100:]
+                        self.iteration += 1
+                        bar.update(1)
+                        bar.set_postfix(grasp_success=f"{np.mean(recent):.2f}" if recent else "-",
+                                        eps=row["epsilon"])
+                        if self.iteration % cfg.checkpoint_every == 0:
+                            f.flush()
+                            self.save()
+                        if self.iteration % cfg.weights_every == 0:
+                            source.broadcast(self.weights(), self.iteration)
+            except KeyboardInterrupt:
+                f.flush()
+                print(f"[train] interrupted: checkpoint at iteration {self.iteration}: {self.save()}")
+                raise
+            finally:
+                bar.close()
         path = self.save()
 
         plot_curves(self.log_, self.dir / "curves.png", title=f"{self.stage.name} ({cfg.backbone}, goal {cfg.goal})")
         (self.dir / "summary.json").write_text(json.dumps(
             {"stage": self.stage.name, "iterations": self.iteration, "this_run": self.iteration - start,
              "recent_grasp_success": float(np.mean(recent)) if recent else None}, indent=2))
-        self.env.close()
         return path
+
+
+@contextmanager
+def _deferred_interrupt() -> Iterator[None]:
+    """Ctrl-C (SIGINT) inside the block is held until its end, then handled as before the block (Python's default:
+    KeyboardInterrupt), so it never stops the learner half-way through an update (a checkpoint then saves a
+    consistent state). A no-op outside the main thread (signals go to the main thread) and where SIGINT is ignored
+    (e.g. a background job) or handled outside Python."""
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or previous in (None, signal.SIG_IGN):
+        yield
+        return
+    caught: list[int] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        if callable(previous):
+            previous(signal.SIGINT, None)
+        raise KeyboardInterrupt

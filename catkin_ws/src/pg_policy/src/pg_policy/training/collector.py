@@ -1,0 +1,240 @@
+"""The acting half of the paper's training loop: play episodes in the simulator and turn each action into a labelled
+transition. Ray-free; the learner (`pg_policy.training.trainer.Trainer`) owns the learning half.
+
+One `Collector.step(iteration)` = (a new episode first when the last one is over, or none was started) -> masked Q
+maps -> epsilon-greedy decision (epsilon of the learner's `iteration`) -> execute -> reward (with hindsight
+relabelling) -> (Transition, log row). The row holds every log.csv column but `loss`, `wall_s` and `collector`, which
+the learner adds. A collector never learns: it acts with the nets it is given (shared with the learner in the serial
+loop, or its own copies that `set_weights` refreshes when it runs in a Ray actor).
+
+Episode numbering: collector `index` of `count` numbers its episodes first_episode + index + 1, + count, + 2 count,
+...; an episode's scene seed is (seed * 100_003 + episode) % 1_000_000, so the collectors of one run play disjoint
+scenes, and one collector (index 0 of 1) numbers them first_episode + 1, + 2, ... as the serial loop always did.
+A scene whose target is not visible is skipped (the number is used up).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+
+from pg_core.geometry import Geometry, load
+from pg_core.target_mask import MIN_VISIBLE_CELLS, target_mask
+from pg_policy.environment.sim_env import EnvObservation, SimEnv, StepResult
+from pg_policy.models.nets.qnet import QNet
+from pg_policy.perception import scene_change
+from pg_policy.policies.heuristic_planner import HeuristicPlanner
+from pg_policy.training import qtensor, rewards
+from pg_policy.training.config import TrainConfig, scene_list
+from pg_policy.training.experience_replay import Transition
+from pg_policy.training.stages import STAGES, choose_primitive, epsilon, explore_action
+
+ROLES = ("grasp", "push")
+
+
+@dataclass(frozen=True)
+class Action:
+    """One chosen action: primitive, rotation index, heightmap cell; pose (x, y, z, yaw) in `world` m / rad;
+    explored: 0 greedy, 1 random, 2 guided; epsilon of the iteration; q: the Q maps it was chosen on (None for a
+    random grasp); grasp_max: masked max of Q_g over the goal (nan without maps); goal: (H, W) bool goal mask and its
+    colour name (None: goal-agnostic)."""
+
+    primitive: str
+    rotation: int
+    row: int
+    col: int
+    pose: tuple[float, float, float, float]
+    explored: int
+    epsilon: float
+    q: dict[str, np.ndarray] | None
+    grasp_max: float
+    goal: np.ndarray
+    goal_color: str | None
+
+
+class Collector:
+    """A simulator, the stage's acting rules and the nets to act with, for one stream of episodes.
+
+    `nets`: the {role: QNet} to act with (the serial loop passes the learner's own, so acting always sees the latest
+    weights); None builds CPU copies of the run's variant whose weights `set_weights` sets. `rng`: the generator of
+    every random choice (the serial loop passes the learner's, so one generator is drawn in the paper loop's order:
+    act, learn, next episode); None makes one of its own from (cfg.seed, index, first_episode)."""
+
+    def __init__(self, cfg: TrainConfig, index: int = 0, count: int = 1, first_episode: int = 0,
+                 nets: dict[str, QNet] | None = None, rng: np.random.Generator | None = None,
+                 geo: Geometry | None = None) -> None:
+        if not 0 <= index < count:
+            raise ValueError(f"collector index {index} is not in [0, {count})")
+        self.cfg, self.index, self.count = cfg, index, count
+        self.scenes_ = scene_list(cfg.scene)  # training scene families, one per episode in turn
+        self.stage = STAGES[cfg.stage]
+        self.geo = geo if geo is not None else load()
+        if nets is None:  # own copies on the CPU; a --pretrained file is not needed (set_weights overwrites them)
+            nets = {role: qtensor.build(dataclasses.replace(cfg, pretrained=None), role) for role in ROLES}
+        self.nets = nets
+        if rng is None:  # a child of the learner's seed sequence: a stream of its own for every (index, first_episode)
+            rng = np.random.default_rng(np.random.SeedSequence(cfg.seed, spawn_key=(index, first_episode)))
+        self.rng = rng
+        self.episode = first_episode + index + 1 - count  # the last episode this collector started (none yet)
+        self.weights_iteration = -1  # learner iteration of the weights last set (-1: the nets as given)
+        self.ep_: dict[str, int] = {}
+        self.obs_: EnvObservation | None = None  # the observation to act on; None: start an episode first
+        self.env = SimEnv(self.geo)
+        self.guide = None
+        if cfg.guided_exploration > 0 and not self.stage.goal_agnostic:
+            self.guide = HeuristicPlanner(self.geo)
+
+    def close(self) -> None:
+        self.env.close()
+
+    def set_weights(self, state_dicts: dict[str, dict[str, torch.Tensor]], iteration: int) -> None:
+        """Load the learner's {role: state_dict} (CPU tensors) of learner `iteration` into the nets to act with."""
+        for role, sd in state_dicts.items():
+            self.nets[role].load_state_dict(sd)
+        self.weights_iteration = iteration
+
+    # -- episodes ----------------------------------------------------------------------------------------------
+    def _goal(self, obs: EnvObservation) -> tuple[np.ndarray, str | None]:
+        """(goal mask, goal colour). Goal-agnostic: every object cell."""
+        if self.stage.goal_agnostic:
+            return obs.heightmap.valid & (obs.heightmap.height > 0.01), None
+        return target_mask(obs.heightmap.color, obs.heightmap.valid, obs.target), obs.target
+
+    def _pick_target(self) -> None:
+        if self.stage.goal_agnostic:
+            return
+        colors = self.env.object_colors()
+        unique = [c for c in colors if colors.count(c) == 1]
+        if unique:
+            self.env.retarget(unique[int(self.rng.integers(len(unique)))])
+
+    def _reset(self, draws: int = 10) -> EnvObservation:
+        """A new episode: the next training scene; goal-conditioned stages draw again (up to `draws` scenes) while
+        the picked target is not visible at all (a policy cannot act on a target it does not see)."""
+        for _ in range(draws):
+            self.episode += self.count
+            seed = (self.cfg.seed * 100_003 + self.episode) % 1_000_000
+            self.env.reset(self.scenes_[(self.episode - 1) % len(self.scenes_)], seed=seed)
+            self._pick_target()
+            self.ep_ = {"actions": 0, "failed": 0, "pushes": 0, "in_row": 0}
+            obs = self.env.observe()
+            if not self._episode_over(obs):
+                break
+        return obs
+
+    def _episode_over(self, obs: EnvObservation | None = None) -> bool:
+        """Budget spent, scene empty, or (goal-conditioned stages) the target gone or not visible in `obs`: an
+        action on an empty goal mask has no target to learn about (its push region and change region are empty)."""
+        ep, cfg = self.ep_, self.cfg
+        if ep["actions"] >= cfg.max_actions or ep["failed"] >= cfg.max_failed_grasps:
+            return True
+        if len(self.env.world.objects) == 0:
+            return True
+        if self.stage.goal_agnostic:
+            return False
+        if not self.env.target_present():
+            return True
+        return obs is not None and int(self._goal(obs)[0].sum()) < MIN_VISIBLE_CELLS
+
+    # -- one action --------------------------------------------------------------------------------------------
+    def step(self, iteration: int) -> tuple[Transition, dict[str, Any]]:
+        """One action of the paper's loop at learner `iteration` (the epsilon schedule's clock): a new episode first
+        when due, then act, execute, label. Returns the transition and its log row (no loss, wall_s, collector)."""
+        if self.obs_ is None or self._episode_over(self.obs_):
+            self.obs_ = self._reset()
+        obs = self.obs_
+        action = self.act(obs, iteration)
+        result = self.env.step(action.primitive, *action.pose)
+        self.ep_["actions"] += 1
+        nxt = self.env.observe()
+        transition, success = self.label(obs, action, result, nxt)
+        self.obs_ = nxt
+        q = action.q[action.primitive][action.rotation, action.row, action.col] if action.q is not None else None
+        row = {"iteration": iteration, "episode": self.episode, "primitive": action.primitive,
+               "rotation": action.rotation, "row": action.row, "col": action.col,
+               "explored": int(action.explored), "q": round(float(q), 4) if q is not None else "",
+               "reward": transition.reward, "grasped": int(result.grasped), "success": int(success),
+               "epsilon": round(action.epsilon, 3), "sim_s": round(result.sim_time, 2)}
+        return transition, row
+
+    def act(self, obs: EnvObservation, iteration: int) -> Action:
+        """Epsilon-greedy (optionally guided) choice of primitive, rotation and cell on the masked Q maps."""
+        cfg, hm = self.cfg, obs.heightmap
+        goal, goal_color = self._goal(obs)
+        eps = epsilon(iteration, cfg.epsilon_start, cfg.epsilon_end, cfg.epsilon_decay)
+        explored = bool(self.rng.random() < eps)
+        if explored and not self.stage.uses_push:  # a random grasp needs no Q maps: skip the forward pass
+            q, gmax = None, float("nan")
+        else:
+            q = qtensor.q_maps(self.nets, hm, goal, ROLES if self.stage.uses_push else ("grasp",))
+            gmax = qtensor.masked_max(q["grasp"], goal)
+        threshold = cfg.early_grasp_threshold if self.stage.name == "push" else cfg.grasp_threshold
+        primitive = choose_primitive(self.stage, gmax, self.ep_["pushes"], threshold, cfg.max_pushes,
+                                     self.ep_["in_row"], cfg.push_budget)
+        self.ep_["in_row"] = self.ep_["in_row"] + 1 if primitive == "push" else 0
+        region = goal if primitive == "grasp" else qtensor.push_region(goal, self.geo)
+        guided = None
+        if explored and self.guide is not None and self.rng.random() < cfg.guided_exploration:
+            guided = self.guide.guide(primitive, hm, goal)
+        if guided is not None:
+            rot, row, col, explored = guided.rotation, guided.row, guided.col, 2
+        elif explored:
+            rot, row, col = explore_action(self.rng, region, cfg.rotations)
+        else:
+            assert q is not None  # greedy: the maps were computed
+            rot, row, col = qtensor.masked_argmax(q[primitive], region)
+        pose = qtensor.action_pose(hm, primitive, rot, row, col, self.geo)
+        return Action(primitive, rot, row, col, pose, int(explored), eps, q, gmax, goal, goal_color)
+
+    def label(self, obs: EnvObservation, action: Action, result: StepResult,
+              nxt: EnvObservation) -> tuple[Transition, bool]:
+        """The transition and its reward (DESIGN.md section 7; grasps relabelled in hindsight), and whether the
+        action succeeded. A push's reward compares Q_g before and after on the nets this collector acts with."""
+        hm, goal = obs.heightmap, action.goal
+        rot, row, col = action.rotation, action.row, action.col
+        if action.primitive == "grasp":
+            # hindsight relabelling: the goal of this grasp is the object under the executed pixel
+            pixel_color = qtensor.color_at(hm, row, col)
+            reward = rewards.grasp_reward(result.grasped_color is not None and result.grasped_color == pixel_color)
+            success = result.target_grasped if action.goal_color else result.grasped_color is not None
+            self.ep_["failed"] += 0 if success else 1
+            mask = target_mask(hm.color, hm.valid, pixel_color) if pixel_color else goal
+            return Transition(hm.color, hm.height, mask, "grasp", rot, row, col, reward), success
+        self.ep_["pushes"] += 1
+        nmask = target_mask(nxt.heightmap.color, nxt.heightmap.valid, obs.target)
+        q_after = qtensor.q_maps(self.nets, nxt.heightmap, nmask, ("grasp",))
+        changed = scene_change.scene_changed(hm, nxt.heightmap, goal, radius_m=scene_change.PUSH_CHANGE_RADIUS_M)
+        occ = [rewards.occupancy_ratio(h, m, 0.05, 0.01) for h, m in ((hm, goal), (nxt.heightmap, nmask))]
+        reward = rewards.push_reward(action.grasp_max, qtensor.masked_max(q_after["grasp"], nmask), changed, occ[0],
+                                     occ[1])
+        t = Transition(hm.color, hm.height, goal, "push", rot, row, col, reward, nxt.heightmap.color,
+                       nxt.heightmap.height, nmask, done=False)
+        return t, reward > 0
+
+
+class LocalCollector:
+    """The serial source of transitions: one Collector in this process, stepped when the learner asks (the paper's
+    loop). Same interface as `pg_policy.training.ray_collectors.RayCollectors`."""
+
+    def __init__(self, collector: Collector) -> None:
+        self.collector = collector
+
+    def __enter__(self) -> LocalCollector:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def next(self, iteration: int) -> tuple[Transition, dict[str, Any], int]:
+        """The next (transition, log row, collector index 0), acted on at learner `iteration`."""
+        return (*self.collector.step(iteration), 0)
+
+    def broadcast(self, state_dicts: dict[str, dict[str, torch.Tensor]], iteration: int) -> None:
+        """Nothing to send: the collector acts with the learner's own nets."""
+
+    def close(self) -> None:
+        self.collector.close()
