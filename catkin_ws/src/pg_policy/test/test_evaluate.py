@@ -179,7 +179,7 @@ def test_cli_heuristic_on_packed_case01(tmp_path, capsys):
     out = tmp_path / "ev"
     assert main(["eval", "--policy", "heuristic", "--scenes", "packed/case01", "--trials", "2", "--out", str(out),
                  "--no-progress"]) == 0
-    assert {p.name for p in out.iterdir()} == {"results.json", "results.md", "results.png"}
+    assert {p.name for p in out.iterdir()} == {"results.json", "results.md", "results.png", "trials.jsonl"}
     doc = json.loads((out / "results.json").read_text())
     assert doc["config"]["policy"] == "heuristic" and doc["config"]["seed"] == 1_000_000
     assert [t["seed"] for t in doc["trials"]] == [1_000_000, 1_000_001]
