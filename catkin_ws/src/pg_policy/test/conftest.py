@@ -1,10 +1,14 @@
-"""Fixtures shared by pg_policy's tests: a local two-node Ray cluster on this machine."""
+"""Fixtures shared by pg_policy's tests: local Ray clusters of two nodes on this machine, and Ray workers that import
+the test modules."""
 
 from __future__ import annotations
 
 import os
 import subprocess
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
 
 import pytest
 
@@ -17,33 +21,59 @@ def ray_processes() -> list[str]:
     return [line for line in out.splitlines() if "pgrep" not in line]
 
 
-@pytest.fixture(scope="session")
-def ray_two_nodes():
-    """The address (HOST:PORT) of a Ray cluster of two nodes with one CPU each, started here with
-    ray.cluster_utils.Cluster (a head and a worker node, each its own raylet) and shut down after the tests, leaving
-    no Ray process behind. The test process itself is not connected: code under test connects with the address."""
+def worker_path(monkeypatch: pytest.MonkeyPatch, folder: str) -> None:
+    """Put `folder` first on the PYTHONPATH that Ray's workers get (pg_policy.cluster.ray_session.worker_env)."""
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(p for p in (folder, os.environ.get("PYTHONPATH")) if p))
+
+
+@contextmanager
+def two_nodes(object_store_bytes: int) -> Iterator[tuple[Any, Any]]:
+    """(cluster, worker node): a head and a worker node with one CPU each (ray.cluster_utils.Cluster, each its own
+    raylet), token authentication on, shut down on exit. The calling process is not connected: code under test
+    connects with `cluster.address`."""
     pytest.importorskip("ray")
     from ray.cluster_utils import Cluster
 
     from pg_policy.cluster.ray_session import use_token_auth
 
-    before = set(ray_processes())
-    old_mode = os.environ.get("RAY_AUTH_MODE")
-    os.environ.pop("RAY_AUTH_MODE", None)
+    old_mode = os.environ.pop("RAY_AUTH_MODE", None)
     use_token_auth(create=True)  # the head requires a token; clients send it in token mode
     cluster = Cluster(initialize_head=True, connect=False,
-                      head_node_args={"num_cpus": 1, "include_dashboard": False, "object_store_memory": 200 * 2**20})
+                      head_node_args={"num_cpus": 1, "include_dashboard": False,
+                                      "object_store_memory": object_store_bytes})
     try:
-        cluster.add_node(num_cpus=1, object_store_memory=200 * 2**20)
+        node = cluster.add_node(num_cpus=1, object_store_memory=object_store_bytes)
         cluster.wait_for_nodes(timeout=60)
-        yield cluster.address
+        yield cluster, node
     finally:
         cluster.shutdown()
         if old_mode is None:
             os.environ.pop("RAY_AUTH_MODE", None)
         else:
             os.environ["RAY_AUTH_MODE"] = old_mode
-        deadline = time.monotonic() + 20
-        while (left := set(ray_processes()) - before) and time.monotonic() < deadline:
-            time.sleep(0.5)
-        assert not left, f"Ray processes left behind: {sorted(left)}"
+
+
+@pytest.fixture(scope="session")
+def ray_two_nodes():
+    """The address (HOST:PORT) of a two-node cluster (two_nodes) shared by the session's tests; after them no Ray
+    process may be left behind."""
+    before = set(ray_processes())
+    with two_nodes(200 * 2**20) as (cluster, _):
+        yield cluster.address
+    deadline = time.monotonic() + 20
+    while (left := set(ray_processes()) - before) and time.monotonic() < deadline:
+        time.sleep(0.5)
+    assert not left, f"Ray processes left behind: {sorted(left)}"
+
+
+@pytest.fixture
+def importable_here(request, monkeypatch):
+    """Ray workers import the requesting test module's functions by name: its folder goes on their PYTHONPATH."""
+    worker_path(monkeypatch, str(request.path.parent))
+
+
+@pytest.fixture
+def own_two_nodes():
+    """two_nodes as a fixture, for a test that changes its cluster (e.g. removes a node): use it as
+    `with own_two_nodes(bytes) as (cluster, node): ...`."""
+    return two_nodes

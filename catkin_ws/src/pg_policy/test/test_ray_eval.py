@@ -145,25 +145,12 @@ def _no_init():
     pass
 
 
-def test_a_lost_node_costs_no_trial_and_the_run_goes_on(monkeypatch, capsys):
+def test_a_lost_node_costs_no_trial_and_the_run_goes_on(importable_here, own_two_nodes, capsys):
     """A two-node cluster loses its worker node after the first trial: the actor there dies, its trial (if any) runs
     again on the head's actor, the replacement cannot start (no CPU left) and is given up; every trial completes."""
-    import os
-
-    from ray.cluster_utils import Cluster
-
-    from pg_policy.cluster.ray_session import use_token_auth
     from pg_policy.evaluation.ray_trials import run_on_ray
 
-    here = os.path.dirname(os.path.abspath(__file__))
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH")) if p))
-    monkeypatch.delenv("RAY_AUTH_MODE", raising=False)
-    use_token_auth(create=True)
-    cluster = Cluster(initialize_head=True, connect=False,
-                      head_node_args={"num_cpus": 1, "include_dashboard": False, "object_store_memory": 100 * 2**20})
-    try:
-        node = cluster.add_node(num_cpus=1, object_store_memory=100 * 2**20)
-        cluster.wait_for_nodes(timeout=60)
+    with own_two_nodes(100 * 2**20) as (cluster, node):
         seen = []
 
         def on_trial(rec):
@@ -174,8 +161,6 @@ def test_a_lost_node_costs_no_trial_and_the_run_goes_on(monkeypatch, capsys):
         jobs = [("a", s) for s in range(12)]
         recs = run_on_ray(jobs, None, 2, _slow_trial, _no_init, (), on_trial, address=cluster.address,
                           start_timeout_s=5)
-    finally:
-        cluster.shutdown()
     assert [r.seed for r in recs] == list(range(12)) and sorted(seen) == list(range(12))
     assert all(r.termination == "completed" for r in recs)
     assert "a replacement Ray worker did not start within 5 s" in capsys.readouterr().out

@@ -178,13 +178,6 @@ def _trial(index, name, seed, plan):
     return index, TrialRecord(name, seed, True, "completed", 1, 1, 0, 0, 0, [{}])
 
 
-@pytest.fixture
-def importable_here(monkeypatch):
-    """Ray workers import this module's _init and _trial by name: its folder goes on their PYTHONPATH."""
-    here = os.path.dirname(os.path.abspath(__file__))
-    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(p for p in (here, os.environ.get("PYTHONPATH")) if p))
-
-
 def test_ray_keeps_finished_trials_when_a_worker_dies_or_a_job_raises(importable_here):
     jobs = [("a", s) for s in (10, DIE, RAISE, 13, 14, 15)]
     seen: list[TrialRecord] = []
