@@ -59,7 +59,8 @@ PrimitiveController::PrimitiveController(ros::NodeHandle& nh, ros::NodeHandle& p
   joint_states_topic_ = param<std::string>(pnh, "joint_states_topic", "/joint_states");
   goal_tolerance_ = param(pnh, "goal_tolerance", goal_tolerance_);
   goal_time_tolerance_ = param(pnh, "goal_time_tolerance", goal_time_tolerance_);
-  default_timeout_ = param(pnh, "default_timeout", config_->primitives().time_budget);
+  timeout_limits_.default_timeout = param(pnh, "default_timeout", config_->primitives().time_budget);
+  timeout_limits_.max_timeout = param(pnh, "max_timeout", timeout_limits_.max_timeout);
   home_timeout_ = param(pnh, "home_timeout", config_->primitives().time_budget);
   joint_states_timeout_ = param(pnh, "joint_states_timeout", joint_states_timeout_);
   clock_timeout_ = param(pnh, "clock_timeout", clock_timeout_);
@@ -69,6 +70,18 @@ PrimitiveController::PrimitiveController(ros::NodeHandle& nh, ros::NodeHandle& p
   gripper_stall_epsilon_ = param(pnh, "gripper_stall_epsilon", gripper_stall_epsilon_);
   gripper_stall_time_ = param(pnh, "gripper_stall_time", gripper_stall_time_);
   gripper_timeout_ = param(pnh, "gripper_timeout", gripper_timeout_);
+  // Every time parameter becomes a ros::Duration: refuse to start rather than fail on each request.
+  checkTimeoutLimits(timeout_limits_);
+  checkSecondsParameter("goal_time_tolerance", goal_time_tolerance_, true);
+  for (const auto& [name, value] : {std::pair<const char*, double>{"home_timeout", home_timeout_},
+                                    {"joint_states_timeout", joint_states_timeout_},
+                                    {"clock_timeout", clock_timeout_},
+                                    {"tf_timeout", tf_timeout_},
+                                    {"max_wall_time", max_wall_time_},
+                                    {"gripper_stall_time", gripper_stall_time_},
+                                    {"gripper_timeout", gripper_timeout_}}) {
+    checkSecondsParameter(name, value);
+  }
 
   for (const std::string& arm : planner_->armNames()) {
     ArmIo io;
@@ -96,6 +109,7 @@ bool PrimitiveController::onExecute(pg_msgs::ExecutePrimitive::Request& req, pg_
     ROS_WARN("primitive_controller: refused a request while busy");
     res.success = false;
     res.grasped = false;
+    res.arm = "";
     res.message = "busy";
     return true;
   }
@@ -105,6 +119,7 @@ bool PrimitiveController::onExecute(pg_msgs::ExecutePrimitive::Request& req, pg_
   } catch (const std::exception& e) {  // never leave the service without an answer
     res.success = false;
     res.message = std::string("internal error: ") + e.what();
+    if (res.arm.empty()) res.message += "; nothing moved";  // res.arm is set just before the first command
   }
   ROS_INFO("primitive_controller: %s -> success=%d grasped=%d arm='%s': %s",
            req.primitive == req.GRASP ? "grasp" : "push", res.success, res.grasped, res.arm.c_str(),
@@ -115,11 +130,23 @@ bool PrimitiveController::onExecute(pg_msgs::ExecutePrimitive::Request& req, pg_
 
 void PrimitiveController::execute(const pg_msgs::ExecutePrimitive::Request& req,
                                   pg_msgs::ExecutePrimitive::Response& res) {
+  // Every return before `res.arm = plan.arm` below is a refusal: nothing commanded, arm "".
   res.success = false;
   res.grasped = false;
   res.arm = "";
   if (req.primitive != req.PUSH && req.primitive != req.GRASP) {
     res.message = "unknown primitive " + std::to_string(req.primitive) + " (0 = PUSH, 1 = GRASP); nothing moved";
+    return;
+  }
+  double timeout = 0.0;  // s, ROS time, the steps before the return home
+  try {
+    timeout = resolveTimeout(req.timeout, timeout_limits_);
+    checkFinite("position.point.x", req.position.point.x);
+    checkFinite("position.point.y", req.position.point.y);
+    checkFinite("position.point.z", req.position.point.z);
+    checkFinite("yaw", req.yaw);
+  } catch (const PrimitiveRefused& e) {
+    res.message = e.what();
     return;
   }
   const std::string dead = checkAlive();
@@ -152,14 +179,13 @@ void PrimitiveController::execute(const pg_msgs::ExecutePrimitive::Request& req,
     res.message = std::string("/joint_states lacks an arm's joints: ") + e.what() + "; nothing moved";
     return;
   }
-  const double timeout = req.timeout > 0.0 ? req.timeout : default_timeout_;
   double planned = 0.0;  // the return home has its own budget (~home_timeout)
   for (const PrimitiveStep& step : plan.steps) {
     if (step.kind == PrimitiveStep::Kind::kMove && step.name != "home") planned += step.motion.duration();
   }
   if (planned > timeout) {
-    res.message =
-        fmt("the planned motion takes %.2f s, more than the timeout of %.2f s; nothing moved", planned, timeout);
+    res.message = "the planned motion takes " + formatSeconds(planned) + ", more than the timeout of " +
+                  formatSeconds(timeout) + "; nothing moved";
     return;
   }
   const ArmIo& io = io_.at(plan.arm);
@@ -170,8 +196,8 @@ void PrimitiveController::execute(const pg_msgs::ExecutePrimitive::Request& req,
     }
   }
 
+  const Deadline limit = deadlineIn(timeout, "the primitive");
   res.arm = plan.arm;
-  const Deadline limit = deadlineIn(timeout);
   std::string error;
   std::string outcome = request.type == PrimitiveType::kGrasp ? "grasped" : "pushed";
   for (const PrimitiveStep& step : plan.steps) {
@@ -204,7 +230,7 @@ std::string PrimitiveController::checkAlive() const {
   const double age = joints_.secondsSinceLast();
   if (age > joint_states_timeout_) {
     return std::isinf(age) ? "no message on " + joint_states_topic_ + " yet (robot driver or simulator not running?)"
-                           : "no message on " + joint_states_topic_ + fmt(" for %.1f s", age) +
+                           : "no message on " + joint_states_topic_ + " for " + formatSeconds(age) +
                                  " (robot driver or simulator dead?)";
   }
   return "";
@@ -230,11 +256,13 @@ std::string PrimitiveController::toWorld(const geometry_msgs::PointStamped& poin
     if (ros::WallTime::now() > give_up) break;
     ros::WallDuration(0.01).sleep();
   }
-  return "no transform from '" + frame + "' to '" + world_frame_ + fmt("' within %.1f s: ", tf_timeout_) + why;
+  return "no transform from '" + frame + "' to '" + world_frame_ + "' within " + formatSeconds(tf_timeout_) + ": " +
+         why;
 }
 
-PrimitiveController::Deadline PrimitiveController::deadlineIn(double ros_seconds) const {
-  return Deadline{ros::Time::now() + ros::Duration(ros_seconds), request_wall_deadline_};
+PrimitiveController::Deadline PrimitiveController::deadlineIn(double ros_seconds, const std::string& whose) const {
+  return Deadline{ros::Time::now() + ros::Duration(ros_seconds), request_wall_deadline_,
+                  describeTimeout(whose, ros_seconds)};
 }
 
 std::string PrimitiveController::waitUntil(const std::function<bool()>& done, const Deadline& limit,
@@ -252,10 +280,12 @@ std::string PrimitiveController::waitUntil(const std::function<bool()>& done, co
       last_ros = now;
       last_tick = wall;
     } else if ((wall - last_tick).toSec() > clock_timeout_) {
-      return fmt("ROS time has not advanced for %.1f s (is /clock published?)", clock_timeout_);
+      return "ROS time has not advanced for " + formatSeconds(clock_timeout_) + " (is /clock published?)";
     }
-    if (now > limit.ros) return what + " did not finish before the primitive's timeout";
-    if (wall > limit.wall) return what + fmt(" exceeded the wall-clock limit of %.0f s", max_wall_time_);
+    if (now > limit.ros) return what + " did not finish within " + limit.ros_what;
+    if (wall > limit.wall) {
+      return what + " exceeded the wall-clock limit of " + formatSeconds(max_wall_time_) + " (~max_wall_time)";
+    }
     ros::WallDuration(poll_period_).sleep();
   }
 }
@@ -290,12 +320,18 @@ std::string PrimitiveController::runMove(const std::string& arm, const std::stri
     error = (*q - goal).cwiseAbs().maxCoeff();
     return ros::Time::now() >= start + ros::Duration(path.duration()) && error <= goal_tolerance_;
   };
+  // The move ends at the earlier of the caller's deadline and its own planned duration plus goal_time_tolerance.
   Deadline move_limit = limit;
-  move_limit.ros = std::min(limit.ros, start + ros::Duration(path.duration() + goal_time_tolerance_));
+  const ros::Time planned_end = start + ros::Duration(path.duration() + goal_time_tolerance_);
+  const bool own_limit = planned_end < limit.ros;
+  if (own_limit) {
+    move_limit.ros = planned_end;
+    move_limit.ros_what = describeMoveLimit(path.duration(), goal_time_tolerance_);
+  }
   const std::string why = waitUntil(reached, move_limit, "arm motion '" + step + "'");
   if (why.empty() || !checkAlive().empty()) return why;  // a dead /joint_states says it all
-  return why + fmt(" (planned %.2f s, final joint error %.4f rad, tolerance %.4f rad)", path.duration(), error,
-                   goal_tolerance_);
+  const std::string planned = own_limit ? "" : "planned " + formatSeconds(path.duration()) + ", ";
+  return why + " (" + planned + fmt("final joint error %.4f rad, goal_tolerance %.4f rad)", error, goal_tolerance_);
 }
 
 std::string PrimitiveController::runGripper(const std::string& arm, double opening_m, bool wait,
@@ -333,7 +369,8 @@ std::string PrimitiveController::goHome(const std::string& arm) {
   const auto q = joints_.positions(planner_->arm(arm).jointNames(), &missing);
   if (!q) return "/joint_states lacks " + missing;
   const TimedPath path = planner_->jointMove(arm, *q, planner_->home(arm));
-  const Deadline limit = deadlineIn(std::max(home_timeout_, path.duration() + goal_time_tolerance_ + 1.0));
+  const Deadline limit =
+      deadlineIn(std::max(home_timeout_, path.duration() + goal_time_tolerance_ + 1.0), "the return home");
   std::string error = runMove(arm, "home", path, limit);
   if (error.empty()) error = runGripper(arm, config_->gripper().max_opening, true, limit);  // releases held objects
   return error;

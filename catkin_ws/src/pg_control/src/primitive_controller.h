@@ -1,7 +1,8 @@
 // primitive_controller's ROS side: serves /pg/execute_primitive by planning with pg_control_core and executing the
 // plan on the arm trajectory controllers and grippers, watching /joint_states. Every wait is bounded by ROS time
 // (the request's timeout; works with /use_sim_time and a sim faster than real time) and by wall-clock guards (dead
-// /joint_states, stopped /clock, max_wall_time), so a call never hangs.
+// /joint_states, stopped /clock, max_wall_time), so a call never hangs. A request is checked (primitive_limits.h)
+// and planned before anything is commanded; the answer names an arm only once that arm has been commanded.
 #ifndef PG_CONTROL_PRIMITIVE_CONTROLLER_H
 #define PG_CONTROL_PRIMITIVE_CONTROLLER_H
 
@@ -20,6 +21,7 @@
 #include <vector>
 
 #include "joint_state_cache.h"
+#include "pg_control/primitive_limits.h"
 #include "pg_control/primitive_planner.h"
 
 namespace pg_control {
@@ -42,6 +44,7 @@ class PrimitiveController {
   struct Deadline {
     ros::Time ros;
     ros::WallTime wall;
+    std::string ros_what;  // what set `ros`, for "did not finish within ...": "the primitive's timeout of 8.00 s"
   };
 
   bool onExecute(pg_msgs::ExecutePrimitive::Request& req, pg_msgs::ExecutePrimitive::Response& res);
@@ -55,7 +58,8 @@ class PrimitiveController {
   std::string goHome(const std::string& arm);
   std::string waitUntil(const std::function<bool()>& done, const Deadline& limit, const std::string& what) const;
   std::optional<double> opening(const std::string& arm) const;
-  Deadline deadlineIn(double ros_seconds) const;
+  // ROS-time deadline `ros_seconds` (s) from now, described as `whose`'s timeout; the wall deadline of the request.
+  Deadline deadlineIn(double ros_seconds, const std::string& whose) const;
 
   ros::NodeHandle nh_;
   std::unique_ptr<pg_core::WorkspaceConfig> config_;
@@ -67,7 +71,7 @@ class PrimitiveController {
   // Parameters (seconds are ROS time unless marked wall).
   double goal_tolerance_ = 0.01;         // rad, final joint error accepted at the end of a move
   double goal_time_tolerance_ = 1.0;     // s a move may run past its planned duration
-  double default_timeout_ = 8.0;         // s per primitive when the request gives 0
+  TimeoutLimits timeout_limits_;         // s per primitive: the default (request gives 0) and the maximum accepted
   double home_timeout_ = 8.0;            // s for the return home
   double joint_states_timeout_ = 2.0;    // wall s without /joint_states = dead
   double clock_timeout_ = 2.0;           // wall s without ROS time advancing (sim time) = dead

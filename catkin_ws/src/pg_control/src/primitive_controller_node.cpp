@@ -10,9 +10,11 @@
 //   ~<arm>/trajectory_topic  "/<arm>/scaled_pos_joint_traj_controller/command"  (trajectory_msgs/JointTrajectory)
 //   ~<arm>/gripper_topic     "/<arm>/gripper/command"               (std_msgs/Float64, opening in m)
 //   ~goal_tolerance 0.01 rad, ~goal_time_tolerance 1.0 s, ~default_timeout and ~home_timeout
-//   (primitives.time_budget), ~joint_states_timeout 2.0 wall s, ~clock_timeout 2.0 wall s, ~tf_timeout 1.0 wall s,
-//   ~max_wall_time 120 wall s, ~gripper_tolerance 5e-4 m, ~gripper_stall_epsilon 2e-4 m, ~gripper_stall_time 0.2 s,
-//   ~gripper_timeout 2.0 s, ~service_threads 2
+//   (primitives.time_budget), ~max_timeout 600 s (the largest request timeout accepted), ~joint_states_timeout
+//   2.0 wall s, ~clock_timeout 2.0 wall s, ~tf_timeout 1.0 wall s, ~max_wall_time 120 wall s, ~gripper_tolerance
+//   5e-4 m, ~gripper_stall_epsilon 2e-4 m, ~gripper_stall_time 0.2 s, ~gripper_timeout 2.0 s, ~service_threads 2
+//   Every time parameter must be finite, > 0 (goal_time_tolerance >= 0) and at most 1e6 s, and default_timeout at
+//   most max_timeout; otherwise the node exits at start with the parameter named.
 #include <ros/ros.h>
 
 #include <exception>

@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "pg_control/cartesian_path.h"
+#include "pg_control/primitive_limits.h"
 
 namespace pg_control {
 namespace {
@@ -83,7 +84,7 @@ std::vector<std::string> PrimitivePlanner::armOrder(const std::string& arm, cons
     if (arms_.count(arm) == 0) {
       std::string known;
       for (const auto& n : armNames()) known += (known.empty() ? "" : ", ") + n;
-      throw PrimitiveRefused("unknown arm '" + arm + "' (known: " + known + ")");
+      throw PrimitiveRefused("unknown arm '" + arm + "' (known: " + known + "); nothing moved");
     }
     return {arm};
   }
@@ -119,9 +120,10 @@ void PrimitivePlanner::checkWorkspace(const std::vector<std::pair<std::string, E
 
 PrimitivePlan PrimitivePlanner::plan(const PrimitiveRequest& request,
                                      const std::map<std::string, JointVector>& current) const {
-  if (!request.position.allFinite() || !std::isfinite(request.yaw)) {
-    throw PrimitiveRefused("position and yaw must be finite numbers (nothing moved)");
-  }
+  checkFinite("position x (world)", request.position.x());
+  checkFinite("position y (world)", request.position.y());
+  checkFinite("position z (world)", request.position.z());
+  checkFinite("yaw", request.yaw);
   const pg_core::PrimitiveParams& pr = config_.primitives();
   const Eigen::Vector3d up(0.0, 0.0, pr.approach_height);
   const Eigen::Vector3d point = request.position;

@@ -6,12 +6,16 @@ topics, follows each JointTrajectory by linear interpolation in ROS time from it
 gripper's speed (stopping at `object_width` when closing on a simulated object) and publishes /joint_states at 100 Hz
 unless paused. Checks: a grasp succeeds and reports the held object; published trajectories respect the UR5e joint
 velocity limit; out-of-workspace points and unknown frames are refused with nothing published; a second call while
-one runs answers "busy"; a silent /joint_states gives a clear error within the timeout and the node keeps serving.
+one runs answers "busy"; a silent /joint_states gives a clear error within the timeout and the node keeps serving;
+NaN, negative, infinite and too large timeouts and non-finite positions or yaws are refused with the field named and
+no arm; a move that overruns says which limit ended it (the primitive's timeout or its planned duration plus
+goal_time_tolerance) and with what numbers.
 """
 
 from __future__ import annotations
 
 import math
+import re
 import threading
 import time
 import unittest
@@ -51,6 +55,7 @@ class FakeArms:
         self.gripper_commands: list[tuple[str, float]] = []
         self.object_width: float | None = None  # closing stops here when set
         self.paused = False
+        self.slowdown = 1.0  # trajectories are followed this many times slower (inf: a stuck arm)
         self.pub = rospy.Publisher("/joint_states", JointState, queue_size=10)
         self.subs = []
         for arm in ARMS:
@@ -81,7 +86,7 @@ class FakeArms:
             for arm in ARMS:
                 if arm in self.active:
                     t0, times, positions = self.active[arm]
-                    t = now - t0
+                    t = (now - t0) / self.slowdown
                     self.q[arm] = np.array([np.interp(t, times, positions[:, j]) for j in range(6)])
                     if t >= times[-1]:
                         del self.active[arm]
@@ -104,13 +109,19 @@ class FakeArms:
         except rospy.ROSException:  # shutting down
             pass
 
+    def set_slowdown(self, factor: float) -> None:
+        with self.lock:
+            self.slowdown = factor
+            if math.isinf(factor):
+                self.active.clear()  # a stuck arm drops what it was given
+
     def received(self) -> tuple[int, int]:
         with self.lock:
             return len(self.trajectories), len(self.gripper_commands)
 
 
 def request(primitive: int, x: float, y: float, z: float, yaw: float = 0.0, frame: str = "world",
-            arm: str = "") -> ExecutePrimitiveRequest:
+            arm: str = "", timeout: float = 0.0) -> ExecutePrimitiveRequest:
     req = ExecutePrimitiveRequest()
     req.primitive = primitive
     req.position = PointStamped()
@@ -118,6 +129,7 @@ def request(primitive: int, x: float, y: float, z: float, yaw: float = 0.0, fram
     req.position.point.x, req.position.point.y, req.position.point.z = x, y, z
     req.yaw = yaw
     req.arm = arm
+    req.timeout = timeout
     return req
 
 
@@ -245,6 +257,10 @@ class TestPrimitiveController(unittest.TestCase):
         res, _ = self.call(request(7, 0.0, 0.0, 0.03))
         self.assertFalse(res.success)
         self.assertIn("unknown primitive", res.message)
+        res, _ = self.call(request(ExecutePrimitiveRequest.GRASP, 0.0, 0.0, 0.03, frame=""))
+        self.assertFalse(res.success)
+        self.assertIn("frame_id is empty", res.message)
+        self.assertEqual(res.arm, "")
         self.assert_nothing_published(before)
 
     def test_5_second_call_while_busy(self) -> None:
@@ -297,6 +313,70 @@ class TestPrimitiveController(unittest.TestCase):
             self.fake.paused = False
         time.sleep(0.5)
         res, _ = self.call(request(ExecutePrimitiveRequest.PUSH, 0.1, 0.1, 0.02))  # plans from where the arm stopped
+        self.assertTrue(res.success, res.message)
+
+    def test_8_bad_numbers_are_refused(self) -> None:
+        before = self.fake.received()
+        for timeout, shown in ((math.inf, "inf"), (1e308, "1e+308"), (math.nan, "nan"), (-1.0, "-1"),
+                               (-math.inf, "-inf"), (600.5, "600.5")):
+            res, _ = self.call(request(ExecutePrimitiveRequest.GRASP, 0.0, 0.0, 0.03, timeout=timeout))
+            self.assertFalse(res.success, res.message)
+            self.assertEqual(res.arm, "", res.message)
+            self.assertIn(f"timeout = {shown} s is refused", res.message)
+            self.assertIn("(0, 600] s", res.message)
+            self.assertIn("nothing moved", res.message)
+        for field, value in (("x", math.nan), ("y", math.inf), ("z", -math.inf), ("yaw", math.nan)):
+            req = request(ExecutePrimitiveRequest.PUSH, 0.0, 0.1, 0.02)
+            if field == "yaw":
+                req.yaw = value
+            else:
+                setattr(req.position.point, field, value)
+            res, _ = self.call(req)
+            self.assertFalse(res.success, res.message)
+            self.assertEqual(res.arm, "", res.message)
+            name = "yaw" if field == "yaw" else f"position.point.{field}"
+            self.assertIn(f"{name} = {value} is not a finite number", res.message)
+            self.assertIn("nothing moved", res.message)
+        # a timeout too short for the plan: the numbers stay readable
+        res, _ = self.call(request(ExecutePrimitiveRequest.PUSH, 0.0, 0.1, 0.02, timeout=1e-6))
+        self.assertFalse(res.success, res.message)
+        self.assertEqual(res.arm, "", res.message)
+        self.assertRegex(res.message, r"^the planned motion takes [0-9.]+ s, more than the timeout of 1e-06 s; "
+                                      r"nothing moved$")
+        self.assert_nothing_published(before)
+        res, _ = self.call(request(ExecutePrimitiveRequest.PUSH, 0.0, 0.1, 0.02, timeout=600.0))  # the maximum
+        self.assertTrue(res.success, res.message)
+
+    def test_9_overrun_names_the_limit(self) -> None:
+        req = request(ExecutePrimitiveRequest.PUSH, 0.0, 0.1, 0.02, arm="right", timeout=1e-6)
+        res, _ = self.call(req)
+        match = re.search(r"the planned motion takes ([0-9.]+) s", res.message)
+        self.assertIsNotNone(match, res.message)
+        planned = float(match.group(1))
+        try:
+            # a stuck arm and a generous timeout: the transit ends at its planned duration plus goal_time_tolerance
+            self.fake.set_slowdown(math.inf)
+            req.timeout = 60.0
+            res, _ = self.call(req)
+            self.assertFalse(res.success, res.message)
+            self.assertEqual(res.arm, "right", res.message)
+            self.assertRegex(res.message, r"^'transit' failed: arm motion 'transit' did not finish within its planned "
+                                          r"duration of [0-9.]+ s plus goal_time_tolerance of 1\.00 s \(final joint "
+                                          r"error [0-9.]+ rad, goal_tolerance 0\.0100 rad\)$")  # the stuck arm is home
+            self.assertNotIn("primitive's timeout", res.message)
+            # a slow arm (each move overruns by less than goal_time_tolerance) and a timeout just above the planned
+            # motion: a later move ends at the primitive's timeout; the return home has its own budget
+            self.fake.set_slowdown(1.3)
+            req.timeout = planned + 0.05
+            res, _ = self.call(req)
+            self.assertFalse(res.success, res.message)
+            self.assertEqual(res.arm, "right", res.message)
+            self.assertRegex(res.message, r"^'\w+' failed: arm motion '\w+' did not finish within the primitive's "
+                                          rf"timeout of {req.timeout:.2f} s \(planned [0-9.]+ s, final joint error")
+            self.assertNotIn("return home failed", res.message)
+        finally:
+            self.fake.set_slowdown(1.0)
+        res, _ = self.call(request(ExecutePrimitiveRequest.PUSH, 0.0, 0.1, 0.02))
         self.assertTrue(res.success, res.message)
 
 

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -203,7 +204,10 @@ TEST_F(PrimitivePlannerTest, OutOfWorkspaceIsRefused) {
   r.position = Eigen::Vector3d(0.0, 0.0, 0.31);
   EXPECT_NE(refusal(r).find("pre-push pose"), std::string::npos) << refusal(r);
   r.position = Eigen::Vector3d(std::nan(""), 0.0, 0.1);
-  EXPECT_NE(refusal(r).find("finite"), std::string::npos) << refusal(r);
+  EXPECT_EQ(refusal(r), "position x (world) = nan is not a finite number; nothing moved");
+  r.position = Eigen::Vector3d(0.0, 0.0, 0.1);
+  r.yaw = -std::numeric_limits<double>::infinity();
+  EXPECT_EQ(refusal(r), "yaw = -inf is not a finite number; nothing moved");
 }
 
 TEST_F(PrimitivePlannerTest, ArmSelection) {
