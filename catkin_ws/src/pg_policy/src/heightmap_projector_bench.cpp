@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "pg_policy/heightmap_projector.h"
+#include "synthetic_frame.h"
 
 namespace {
 
@@ -45,40 +46,13 @@ int main(int argc, char** argv) {
   pg_policy::HeightmapProjector projector(
       pg_policy::ProjectorConfig::fromWorkspace(pg_core::WorkspaceConfig::fromFile(path)));
 
-  constexpr int kW = 640;
-  constexpr int kH = 480;
-  const pg_policy::CameraIntrinsics k{615.0, 615.0, 319.5, 239.5};
-  std::vector<float> depth_m(kW * kH);
-  std::vector<std::uint16_t> depth_mm(kW * kH);
-  std::vector<std::uint8_t> rgb(kW * kH * 3);
-  std::uint32_t seed = 12345;
-  for (int v = 0; v < kH; ++v) {
-    for (int u = 0; u < kW; ++u) {
-      seed = seed * 1664525u + 1013904223u;  // LCG noise, +-1 mm
-      float z = 0.7f + ((seed >> 16) % 3 - 1) * 0.001f;
-      if (((u / 80) + (v / 80)) % 3 == 0) z -= 0.05f + 0.01f * ((u / 80) % 4);  // boxes 5-8 cm tall
-      if ((seed >> 8) % 100 == 0) z = 0.0f;                                     // holes
-      const int i = v * kW + u;
-      depth_m[i] = z;
-      depth_mm[i] = static_cast<std::uint16_t>(std::lround(z * 1000.0f));
-      rgb[3 * i] = static_cast<std::uint8_t>(u);
-      rgb[3 * i + 1] = static_cast<std::uint8_t>(v);
-      rgb[3 * i + 2] = static_cast<std::uint8_t>(u + v);
-    }
-  }
-  const pg_policy::DepthImageView view_m{reinterpret_cast<const std::uint8_t*>(depth_m.data()), kW, kH,
-                                         kW * sizeof(float), pg_policy::DepthEncoding::kFloat32Metres};
-  const pg_policy::DepthImageView view_mm{reinterpret_cast<const std::uint8_t*>(depth_mm.data()), kW, kH,
-                                          kW * sizeof(std::uint16_t), pg_policy::DepthEncoding::kUint16Millimetres};
-  const pg_policy::ColorImageView color{rgb.data(), kW * 3, false};
-  const pcl::PointCloud<pcl::PointXYZRGB> cloud = pg_policy::HeightmapProjector::depthToCloud(view_m, color, k);
-
-  // world <- camera_color_optical_frame as in config/workspace.yaml: xyz (0, 0, 0.7), rpy (pi, 0, -pi/2).
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-  pose.linear() =
-      (Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX()))
-          .toRotationMatrix();
-  pose.translation() = Eigen::Vector3d(0.0, 0.0, 0.7);
+  const pg_policy::SyntheticFrame frame;
+  const pg_policy::CameraIntrinsics& k = frame.intrinsics;
+  const pg_policy::DepthImageView view_m = frame.metres();
+  const pg_policy::DepthImageView view_mm = frame.millimetres();
+  const pg_policy::ColorImageView color = frame.color();
+  const pcl::PointCloud<pcl::PointXYZRGB> cloud = frame.cloud();
+  const Eigen::Isometry3d& pose = frame.world_from_camera;
 
   pg_policy::HeightmapGrid grid;
   const Stats s_cloud = timeRuns(runs, [&] { projector.project(cloud, pose, grid); });
@@ -87,8 +61,9 @@ int main(int argc, char** argv) {
   const Stats s_m = timeRuns(runs, [&] { projector.projectDepth(view_m, color, k, pose, grid); });
   const Stats s_mm = timeRuns(runs, [&] { projector.projectDepth(view_mm, color, k, pose, grid); });
 
-  std::printf("heightmap_projector_bench: %d runs, %dx%d frame -> %dx%d grid (%d valid cells)\n", runs, kW, kH,
-              projector.rows(), projector.cols(), valid);
+  std::printf("heightmap_projector_bench: %d runs, %dx%d frame -> %dx%d grid (%d valid cells)\n", runs,
+              pg_policy::SyntheticFrame::kWidth, pg_policy::SyntheticFrame::kHeight, projector.rows(), projector.cols(),
+              valid);
   std::printf("  cloud (PointXYZRGB)   median %.3f ms  p90 %.3f ms\n", s_cloud.median_ms, s_cloud.p90_ms);
   std::printf("  depth 32FC1 metres    median %.3f ms  p90 %.3f ms\n", s_m.median_ms, s_m.p90_ms);
   std::printf("  depth 16UC1 mm        median %.3f ms  p90 %.3f ms\n", s_mm.median_ms, s_mm.p90_ms);

@@ -7,7 +7,7 @@
 //   rows = round((y_max - y_min) / resolution), cols = round((x_max - x_min) / resolution).
 // A point is used when x, y, z are finite, 0 <= col < cols, 0 <= row < rows and z < z_max. Points below z_min are kept
 // with height 0 (height = max(z - z_min, 0)), exactly as the numpy reference does (sensor noise under the table).
-// Each cell keeps its HIGHEST point (explicit running max in double precision, one pass, no sorting); its colour is
+// Each cell keeps its HIGHEST point (explicit running max in double precision, no sorting); its colour is
 // the colour of that point. Ties (equal heights): the LATER point in input order wins, as numpy's fancy assignment
 // `color[flat[winner]] = rgb[winner]` does in the reference. Empty cells: height 0, colour (0, 0, 0), valid 0.
 #ifndef PG_POLICY_HEIGHTMAP_PROJECTOR_H
@@ -117,14 +117,21 @@ class HeightmapProjector {
                                                         const CameraIntrinsics& intrinsics);
 
  private:
-  // Sizes and clears `out` and the running max before a projection; writes heights and validity after it.
-  void begin(HeightmapGrid& out);
-  void finish(HeightmapGrid& out) const;
+  // Sizes and clears `out`, the per-cell running max and the per-point scratch for `points` points (throws
+  // std::invalid_argument above 2^31 - 1 points); finish() writes heights, validity and the winners' colours,
+  // colour_of(point index, rgb out[3]).
+  void begin(HeightmapGrid& out, std::size_t points);
+  template <class ColourOf>
+  void finish(HeightmapGrid& out, ColourOf colour_of) const;
 
   ProjectorConfig config_;
   int rows_ = 0;
   int cols_ = 0;
-  std::vector<double> best_;  // rows * cols scratch: running max height (m above z_min), -inf where empty
+  std::vector<double> best_;          // rows * cols: running max height (m above z_min), -inf where empty
+  std::vector<std::int32_t> winner_;  // rows * cols: input index of each cell's highest point, -1 where empty
+  std::vector<std::int32_t> cell_;    // per point: row * cols + col, -1 when not used
+  std::vector<double> point_height_;  // per point: height above z_min (m, >= 0)
+  std::vector<double> depth_row_;     // depth path: one image row in metres
 };
 
 }  // namespace pg_policy
