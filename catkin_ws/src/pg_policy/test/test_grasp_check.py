@@ -113,3 +113,19 @@ def test_walls_accept_a_box_both_ways():
     hm, target = _scene()
     walls = make_grasp_check("jaw-walls", GEO)
     assert walls.passes(hm, target, ALONG_X, C, C) and walls.passes(hm, target, ALONG_Y, C, C)
+
+
+@pytest.mark.parametrize("walls", [False, True])
+def test_the_batched_check_answers_as_the_one_by_one_check(walls):
+    """passes_many (what the re-rank asks, in batches) gives passes' answer for every candidate: free and boxed-in
+    targets, every rotation, cells on and off the target."""
+    rng = np.random.default_rng(3)
+    check = JawGraspCheck(GEO, strict=True, walls=walls)
+    answers = []
+    for hm, target in (_scene(), _scene((0, 20)), _scene((0, 20), (20, 0)), _scene((0, 20), (0, -20), (20, 0))):
+        rots, rows, cols = rng.integers(0, 16, 150), rng.integers(C - 9, C + 10, 150), rng.integers(C - 9, C + 10, 150)
+        one = [check.passes(hm, target, int(r), int(y), int(x)) for r, y, x in zip(rots, rows, cols, strict=True)]
+        many = check.passes_many(hm, target, rots, rows, cols)
+        assert many.dtype == bool and many.tolist() == one
+        answers += one
+    assert 0 < sum(answers) < len(answers)  # both answers occur

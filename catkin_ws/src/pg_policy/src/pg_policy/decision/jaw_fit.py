@@ -119,3 +119,46 @@ class JawFit:
         dt = np.maximum(np.abs(orel @ v) - (self.finger_w / 2 + p.margin), 0.0)
         dist = np.hypot(ds, dt)
         return (float(dist.min()) if (dist > 0).all() else -1.0), c2, hi - lo
+
+    def grasp_fit_many(self, t_xy: np.ndarray, o_xy: np.ndarray, o_h: np.ndarray, centres: np.ndarray,
+                       yaws: np.ndarray, z_grasp: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """`grasp_fit` for K grasps at once: (clearance (K,) m, grasp points (K, 2), widths (K,) m).
+
+        centres (K, 2), yaws (K,), z_grasp (K,): the grasps; t_xy, o_xy, o_h as in `grasp_fit`. A grasp that
+        `grasp_fit` answers None for gets clearance NaN; -1 where a neighbour stands in a finger's sweep.
+        """
+        p = self.p
+        centres = np.asarray(centres, dtype=np.float64).reshape(-1, 2)
+        k = len(centres)
+        u = np.stack([np.cos(yaws), np.sin(yaws)], axis=1)  # (K, 2)
+        v = np.stack([-u[:, 1], u[:, 0]], axis=1)
+        rel = t_xy[None] - centres[:, None]  # (K, M, 2)
+        t = rel @ v[:, :, None]  # (K, M, 1): the same per-row dot product as grasp_fit's `rel @ v`
+        t = t[..., 0]
+        s = (rel @ u[:, :, None])[..., 0]
+        band = np.abs(t) <= self.finger_w / 2 + p.margin
+        inf = np.inf
+        ok = band.sum(axis=1) >= p.min_band_cells
+        ok &= ~(np.where(band, t, inf).min(axis=1) > -p.centre_line)
+        ok &= ~(np.where(band, t, -inf).max(axis=1) < p.centre_line)
+        lo, hi = np.where(band, s, inf).min(axis=1), np.where(band, s, -inf).max(axis=1)
+        ok &= ~(hi - lo > 2 * (self.half_open - p.margin))
+        line = np.abs(t) <= p.centre_line
+        ok &= line.any(axis=1)
+        chord = np.where(line, s, -inf).max(axis=1) - np.where(line, s, inf).min(axis=1)
+        ok &= ~(chord < (hi - lo) - p.chord_tol)
+        mid = np.where(ok, 0.5 * (lo + hi), 0.0)
+        c2 = centres + mid[:, None] * u
+        clearance = np.full(k, np.nan)
+        reach = self.half_open + self.finger_t + p.margin
+        for i in np.flatnonzero(ok):  # neighbours: few grasps get here, each with its own blocking set
+            block = o_h > z_grasp[i] - p.obstacle_tol
+            if not block.any():
+                clearance[i] = 1.0
+                continue
+            orel = o_xy[block] - c2[i]
+            ds = np.maximum(np.abs(orel @ u[i]) - reach, 0.0)
+            dt = np.maximum(np.abs(orel @ v[i]) - (self.finger_w / 2 + p.margin), 0.0)
+            dist = np.hypot(ds, dt)
+            clearance[i] = float(dist.min()) if (dist > 0).all() else -1.0
+        return clearance, c2, np.where(ok, hi - lo, np.nan)

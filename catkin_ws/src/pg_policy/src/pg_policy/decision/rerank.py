@@ -24,11 +24,35 @@ def rerank(q: np.ndarray, region: np.ndarray, allowed: Callable[[int, int, int],
         return out, None
     order = np.argpartition(-masked, k - 1)[:k]
     order = order[np.argsort(-masked[order], kind="stable")]
-    for rank, flat in enumerate(order):
-        r, row, col = (int(i) for i in np.unravel_index(int(flat), out.shape))
-        if allowed(r, row, col):
-            if rank:
-                out.reshape(-1)[order[:rank]] = -np.inf
-                out[r, row, col] = masked[order[0]]
-            return out, rank
-    return out, None
+    rank = _first_allowed(order, out.shape, allowed)
+    if rank is None:
+        return out, None
+    if rank:
+        r, row, col = np.unravel_index(int(order[rank]), out.shape)
+        out.reshape(-1)[order[:rank]] = -np.inf
+        out[r, row, col] = masked[order[0]]
+    return out, rank
+
+
+FIRST_BATCH = 8  # candidates asked at once first; each later batch is twice as large
+
+
+def _first_allowed(order: np.ndarray, shape: tuple[int, ...], allowed: Callable[[int, int, int], bool]) -> int | None:
+    """Rank in `order` (flat indices into `shape`) of the first candidate `allowed` accepts, None if none. A test with
+    a `many` method (pg_policy.decision.rules.rule.BatchTest) is asked in batches of 8, 16, 32, ... candidates."""
+    many = getattr(allowed, "many", None)
+    if many is None:
+        for rank, flat in enumerate(order):
+            r, row, col = (int(i) for i in np.unravel_index(int(flat), shape))
+            if allowed(r, row, col):
+                return rank
+        return None
+    rots, rows, cols = np.unravel_index(order, shape)
+    start, size = 0, FIRST_BATCH
+    while start < len(order):
+        stop = min(start + size, len(order))
+        hits = np.flatnonzero(np.asarray(many(rots[start:stop], rows[start:stop], cols[start:stop]), dtype=bool))
+        if hits.size:
+            return start + int(hits[0])
+        start, size = stop, 2 * size
+    return None

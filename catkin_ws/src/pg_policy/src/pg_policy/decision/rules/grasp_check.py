@@ -30,7 +30,7 @@ from pg_core.geometry import Geometry
 from pg_core.heightmap import Heightmap, pixel_to_world
 from pg_policy.decision.jaw_fit import JawFit
 from pg_policy.decision.option import PolicyOption
-from pg_policy.decision.rules.rule import CandidateTest, Rule, RuleContext
+from pg_policy.decision.rules.rule import BatchTest, CandidateTest, Rule, RuleContext
 
 
 @dataclass(frozen=True)
@@ -122,9 +122,31 @@ class JawGraspCheck(Rule):
         high = h[s >= s.max() - self.wall_window].max()
         return float(min(low, high))
 
+    def passes_many(self, hm: Heightmap, target: np.ndarray, rotations: np.ndarray, rows: np.ndarray,
+                    cols: np.ndarray, cells_others: tuple | None = None) -> np.ndarray:
+        """`passes` for K candidates at once: (K,) bool, candidate i being (rotations[i], rows[i], cols[i])."""
+        cells, others = cells_others or self.jaw.around(hm, target)
+        t = target[cells.slice].reshape(-1)
+        o = others[cells.slice].reshape(-1)
+        t_xy, t_h, o_xy, o_h = cells.xy[t], cells.h[t], cells.xy[o], cells.h[o]
+        rotations, rows, cols = (np.asarray(a, dtype=np.int64).reshape(-1) for a in (rotations, rows, cols))
+        yaws = rotations * 2 * math.pi / self.jaw.rotations
+        cells_rc = list(zip(rows.tolist(), cols.tolist(), strict=True))
+        centres = np.array([pixel_to_world(r, c, hm.bounds, hm.resolution) for r, c in cells_rc],
+                           dtype=np.float64).reshape(-1, 2)
+        zg = np.array([grasp_z(hm.height, r, c, self.prims) for r, c in cells_rc], dtype=np.float64)
+        clearance, c2, _ = self.jaw.grasp_fit_many(t_xy, o_xy, o_h, centres, yaws, zg)
+        ok = clearance >= 0  # NaN (no fit) compares False
+        u = np.stack([np.cos(yaws), np.sin(yaws)], axis=1)
+        ok &= ~(np.abs(((c2 - centres)[:, None, :] @ u[:, :, None])[:, 0, 0]) > self.centre_tol)
+        if self.walls:
+            for i in np.flatnonzero(ok):
+                ok[i] = self.wall_height(t_xy, t_h, c2[i], float(yaws[i])) >= zg[i] + self.wall_tol
+        return ok
+
     def candidate_test(self, ctx: RuleContext) -> CandidateTest | None:
         if not ctx.visible or not ctx.target.any():
             return None
         hm, target = ctx.heightmap, ctx.target
         context = self.jaw.around(hm, target)
-        return lambda r, row, col: self.passes(hm, target, r, row, col, context)
+        return BatchTest(lambda r, row, col: self.passes_many(hm, target, r, row, col, context))

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from pg_policy.decision.rerank import rerank
-from pg_policy.decision.rules.rule import CandidateTest, Rule, RuleContext
+from pg_policy.decision.rules.rule import BatchTest, CandidateTest, Rule, RuleContext
 
 
 @dataclass(frozen=True)
@@ -35,7 +35,19 @@ class RuleOutcome:
 
 
 def conjunction(tests: Sequence[CandidateTest]) -> CandidateTest:
-    """The candidate test passed when every one of `tests` passes (evaluated in order, stopping at the first no)."""
+    """The candidate test passed when every one of `tests` passes (evaluated in order, stopping at the first no).
+    A BatchTest when every test is one: each later test is asked only about the candidates the earlier ones passed."""
+    if tests and all(isinstance(t, BatchTest) for t in tests):
+        def many(rots: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+            ok = np.ones(len(rots), dtype=bool)
+            for t in tests:
+                idx = np.flatnonzero(ok)
+                if idx.size == 0:
+                    break
+                ok[idx] = np.asarray(t.many(rots[idx], rows[idx], cols[idx]), dtype=bool)  # type: ignore[attr-defined]
+            return ok
+
+        return BatchTest(many)
     return lambda rot, row, col: all(t(rot, row, col) for t in tests)
 
 

@@ -29,6 +29,18 @@ from pg_policy.decision.option import PolicyOption
 CandidateTest = Callable[[int, int, int], bool]  # (rotation, row, col) -> allowed
 
 
+class BatchTest:
+    """A candidate test that also answers for many candidates at once: `many(rotations, rows, cols)` takes (K,) int
+    arrays and returns a (K,) bool array; calling it with one candidate asks `many` about that one. The re-rank
+    (pg_policy.decision.rerank) asks a BatchTest about candidates in growing batches instead of one by one."""
+
+    def __init__(self, many: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]) -> None:
+        self.many = many
+
+    def __call__(self, rotation: int, row: int, col: int) -> bool:
+        return bool(self.many(np.array([rotation]), np.array([row]), np.array([col]))[0])
+
+
 @dataclass(frozen=True)
 class RuleContext:
     """What a rule may look at for one decision.
