@@ -127,3 +127,15 @@ def test_bench_cli_on_cases_file(tmp_path, capsys):
     if not torch.cuda.is_available():
         assert main(["bench", "--cases", str(path), "--device", "cuda", "--quiet"]) != 0
         assert "no CUDA device" in capsys.readouterr().err
+
+
+def test_the_policy_bench_times_the_shipped_decision_by_stage():
+    from pg_policy.evaluation.policy_bench import bench_policy
+
+    pb = bench_policy("lite", ["packed/case01"], runs=2, threads=1, verbose=False)
+    assert len(pb.total_s) == 2 and pb.decisions_stable and pb.decisions["packed/case01"].startswith(("push", "grasp"))
+    stages = set(pb.stages_s)
+    assert {"perceive", "nets", "rule:grasp_check", "rerank", "decide"} <= stages
+    parts = sum(float(np.mean(v)) for v in pb.stages_s.values())
+    assert parts <= float(np.mean(pb.total_s))  # the stages account for no more than the whole call
+    assert "Stage" in pb.report() and "decisions stable across calls: yes" in pb.report()

@@ -1,4 +1,5 @@
-"""`pushgrasp bench`: decision latency of each net variant next to a VPG-style loop, with decision agreement.
+"""`pushgrasp bench`: the shipped policy's decision end to end by stage, then the decision latency of each net variant
+next to a VPG-style loop, with decision agreement.
 
 Heavy modules (torch, pybullet) are imported inside the handler.
 """
@@ -15,7 +16,8 @@ def _csv(text: str) -> list[str]:
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="decision latency (heightmap -> decision) per variant vs a VPG-style loop")
     p.add_argument("--variants", type=_csv, default=["lite", "lite-os8", "densenet121"],
-                   help="comma-separated backbones (default lite,lite-os8,densenet121)")
+                   help="comma-separated backbones of the nets-only modes (default lite,lite-os8,densenet121); "
+                        "\"\" skips them")
     p.add_argument("--modes", type=_csv, default=None,
                    help="comma-separated modes (default all: vpg-loop,batched,early-grasp,window,window+early)")
     p.add_argument("--runs", type=int, default=20, help="timed decisions per mode (median reported, default 20)")
@@ -36,6 +38,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "(for a machine without the simulator)")
     p.add_argument("--save-cases", default=None, metavar="NPZ",
                    help="render the shipped scenes (--scenes), write their heightmaps and masks to NPZ and exit")
+    p.add_argument("--policy", default="lite",
+                   help="time this policy's act() end to end with a per-stage breakdown before the net variants: "
+                        "a policy name, model dir or plugin (default lite, the shipped policy); none: skip")
+    p.add_argument("--policy-scenes", type=_csv, default=None,
+                   help="comma-separated shipped scenes whose first views the policy decides on (default "
+                        "packed/case01,packed/case05,packed/case09,household/case12)")
+    p.add_argument("--policy-runs", type=int, default=10,
+                   help="rounds over the policy scenes (median over all calls reported, default 10)")
     p.add_argument("--quiet", action="store_true", help="no per-mode progress on stderr")
     p.set_defaults(run=_run)
 
@@ -47,6 +57,14 @@ def _run(args: argparse.Namespace) -> int:
         cases = scene_cases(args.scenes)
         save_cases(cases, args.save_cases)
         print(f"wrote {len(cases)} heightmaps to {args.save_cases}")
+        return 0
+    if args.policy != "none":
+        from pg_policy.evaluation.policy_bench import DEFAULT_SCENES, bench_policy
+
+        pb = bench_policy(args.policy, args.policy_scenes or DEFAULT_SCENES, runs=args.policy_runs,
+                          threads=args.threads, verbose=not args.quiet)
+        print(pb.report() + "\n")
+    if not args.variants:
         return 0
     result = run(args.variants, runs=args.runs, threads=args.threads, scenes=args.scenes,
                  modes=args.modes or tuple(MODES), threshold=args.threshold, margin_m=args.window_margin,

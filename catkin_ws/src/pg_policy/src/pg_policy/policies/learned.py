@@ -14,6 +14,7 @@ its `rules` (or the switches of older models); PolicyOptions overrides any of th
 from __future__ import annotations
 
 import math
+import time
 from typing import Any
 
 from pg_policy.decision.decision import Decision, decide, grasp_region, push_region
@@ -46,6 +47,7 @@ class LearnedPolicy(PolicyBase):
         self.pushes_in_row = 0
         self.last: Decision | None = None
         self.last_note = ""
+        self.last_timings: dict[str, float] = {}  # seconds per stage of the last act(): perceive, nets, rule:*, decide
 
     def reset(self, seed: int | None = None) -> None:
         super().reset(seed)
@@ -54,11 +56,16 @@ class LearnedPolicy(PolicyBase):
         self.last, self.last_note = None, ""
 
     def act(self, obs: Any) -> Decision:
+        t0 = time.perf_counter()
         hm = obs.heightmap
         target, visible = goal_or_all(obs)
         ctx = RuleContext(hm, target, visible, grasp_region(target, hm.resolution), push_region(target, hm.resolution))
         self.rules.observe(self.last, ctx)
-        outcome = self.rules.apply(self.nets.q_maps(hm, target), ctx)
+        t1 = time.perf_counter()
+        q = self.nets.q_maps(hm, target)
+        t2 = time.perf_counter()
+        outcome = self.rules.apply(q, ctx)
+        t3 = time.perf_counter()
         self._q = outcome.shown
         spent = 0 < self.push_budget <= self.pushes_in_row
         threshold, self.last_note = (-math.inf if spent else self.threshold), ""
@@ -68,4 +75,6 @@ class LearnedPolicy(PolicyBase):
                    push_mask=ctx.push_region, grasp_mask=ctx.grasp_region)  # the regions the rules saw
         self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0
         self.last = d
+        rules = {(name if name == "rerank" else f"rule:{name}"): s for name, s in self.rules.timings.items()}
+        self.last_timings = {"perceive": t1 - t0, "nets": t2 - t1, **rules, "decide": time.perf_counter() - t3}
         return d

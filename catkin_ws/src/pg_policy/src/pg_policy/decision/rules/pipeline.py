@@ -9,6 +9,7 @@ passes, the map is left as it was and a vetoing grasp rule asks the policy to pu
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -61,6 +62,9 @@ class RulePipeline:
             raise ValueError(f"a rule may appear once in the rule list, got {names}")
         self.rules = list(rules)
         self._before: RuleContext | None = None
+        # seconds spent by the last apply(), per rule name (its adjust and its candidate tests) and "rerank" (the
+        # walk over the candidates itself): what `pushgrasp bench` reports per rule
+        self.timings: dict[str, float] = {}
 
     def specs(self) -> list[str]:
         return [r.spec() for r in self.rules]
@@ -91,20 +95,29 @@ class RulePipeline:
         """The maps {"grasp": (R, H, W), "push": (R, H, W)} after every rule, for the decision in `ctx`."""
         out, shown, push_instead, note = {}, {}, False, ""
         rejected, vetoed = {"grasp": 0, "push": 0}, {"grasp": False, "push": False}
+        self.timings = timings = {r.name: 0.0 for r in self.rules} | {"rerank": 0.0}
         for primitive in ("grasp", "push"):
             rules = [r for r in self.rules if r.primitive == primitive]
             m = q[primitive]
             for r in rules:
                 if r.kind == "filter":
-                    m = r.adjust(m, ctx)
+                    m = _timed_adjust(r, m, ctx, timings)
             shown[primitive] = m
             for r in rules:
                 if r.kind != "filter":
-                    m = r.adjust(m, ctx)
-            tested = [(r, t) for r in rules if (t := r.candidate_test(ctx)) is not None]
+                    m = _timed_adjust(r, m, ctx, timings)
+            tested = []
+            for r in rules:
+                start = time.perf_counter()
+                t = r.candidate_test(ctx)
+                timings[r.name] += time.perf_counter() - start
+                if t is not None:
+                    tested.append((r, _timed_test(r.name, t, timings)))
             if tested:
                 region = ctx.region(primitive)
+                start, inside = time.perf_counter(), sum(timings[r.name] for r, _ in tested)
                 m, rank = rerank(m, region, conjunction([t for _, t in tested]), max(r.top_k for r, _ in tested))
+                timings["rerank"] += time.perf_counter() - start - (sum(timings[r.name] for r, _ in tested) - inside)
                 rejected[primitive] = rank or 0
                 vetoed[primitive] = rank is None and bool((region[None] & np.isfinite(m)).any())
                 vetoers = [r for r, _ in tested if r.vetoes_grasp]
@@ -112,3 +125,34 @@ class RulePipeline:
                     push_instead, note = True, vetoers[0].veto_note
             out[primitive] = m
         return RuleOutcome(out, shown, push_instead, note, rejected, vetoed)
+
+
+def _timed_adjust(rule: Rule, m: np.ndarray, ctx: RuleContext, timings: dict[str, float]) -> np.ndarray:
+    start = time.perf_counter()
+    m = rule.adjust(m, ctx)
+    timings[rule.name] += time.perf_counter() - start
+    return m
+
+
+def _timed_test(name: str, test: CandidateTest, timings: dict[str, float]) -> CandidateTest:
+    """`test` (a BatchTest stays one) adding the seconds it runs to timings[name]."""
+    if isinstance(test, BatchTest):
+        many = test.many
+
+        def timed_many(rots: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+            start = time.perf_counter()
+            try:
+                return many(rots, rows, cols)
+            finally:
+                timings[name] += time.perf_counter() - start
+
+        return BatchTest(timed_many)
+
+    def timed(rot: int, row: int, col: int) -> bool:
+        start = time.perf_counter()
+        try:
+            return test(rot, row, col)
+        finally:
+            timings[name] += time.perf_counter() - start
+
+    return timed
