@@ -6,6 +6,9 @@ Every wait is bounded (wall-clock timeouts), so a dead sim fails the test instea
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
 import time
 import unittest
 
@@ -17,11 +20,13 @@ from pg_msgs.msg import SceneState
 from pg_msgs.srv import ResetScene
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState, PointCloud2
+from std_msgs.msg import UInt32
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 ARM_JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
               "wrist_3_joint")
 WAIT = 60.0  # s wall: the sim node may still be starting (scene load, first render)
+SCENE_FOLDER = "/tmp/pg_sim_rostest"  # the ~scene_folders entry of sim_node.test
 
 
 def wait_for(predicate, timeout: float, what: str):
@@ -43,6 +48,8 @@ class SimNodeTest(unittest.TestCase):
         cls.scene_states: list[SceneState] = []
         cls.js_sub = rospy.Subscriber("/joint_states", JointState, cls._on_js, queue_size=5)
         cls.scene_sub = rospy.Subscriber("/pg_sim/scene_state", SceneState, cls._on_scene, queue_size=20)
+        cls.resets: list[int] = []
+        cls.resets_sub = rospy.Subscriber("/pg_sim/scene_resets", UInt32, lambda m: cls.resets.append(m.data))
         cls.tf_buffer = tf2_ros.Buffer()
         cls.tf_listener = tf2_ros.TransformListener(cls.tf_buffer)
 
@@ -61,9 +68,17 @@ class SimNodeTest(unittest.TestCase):
         pos = dict(zip(js.name, js.position, strict=True))
         return np.array([pos[f"left_{n}"] for n in ARM_JOINTS])
 
-    def reset(self, scene: str):
+    def reset(self, scene: str, num_objects: int = 0, seed: int = 0):
         rospy.wait_for_service("/pg_sim/reset_scene", timeout=WAIT)
-        return rospy.ServiceProxy("/pg_sim/reset_scene", ResetScene)(scene=scene, num_objects=0, seed=0)
+        return rospy.ServiceProxy("/pg_sim/reset_scene", ResetScene)(scene=scene, num_objects=num_objects, seed=seed)
+
+    def send_left(self, goal: np.ndarray, seconds: float) -> None:
+        pub = rospy.Publisher("/left/scaled_pos_joint_traj_controller/command", JointTrajectory, queue_size=1)
+        wait_for(lambda: pub.get_num_connections() > 0, WAIT, "the sim node to subscribe to the trajectory topic")
+        msg = JointTrajectory(joint_names=[f"left_{n}" for n in ARM_JOINTS])
+        msg.points = [JointTrajectoryPoint(positions=goal.tolist(), velocities=[0.0] * 6,
+                                           time_from_start=rospy.Duration(seconds))]
+        pub.publish(msg)
 
     def test_1_clock_advances(self) -> None:
         first = rospy.wait_for_message("/clock", Clock, timeout=WAIT).clock
@@ -105,17 +120,13 @@ class SimNodeTest(unittest.TestCase):
     def test_5_trajectory_moves_left_arm(self) -> None:
         start = wait_for(self.left_joints, WAIT, "/joint_states")
         goal = start + np.array([0.3, 0.15, -0.2, 0.1, 0.2, 0.4])
-        pub = rospy.Publisher("/left/scaled_pos_joint_traj_controller/command", JointTrajectory, queue_size=1)
-        wait_for(lambda: pub.get_num_connections() > 0, WAIT, "the sim node to subscribe to the trajectory topic")
-        msg = JointTrajectory(joint_names=[f"left_{n}" for n in ARM_JOINTS])
-        msg.points = [JointTrajectoryPoint(positions=goal.tolist(), velocities=[0.0] * 6,
-                                           time_from_start=rospy.Duration(1.5))]
         t0 = rospy.Time.now()
-        pub.publish(msg)
+        self.send_left(goal, 1.5)
         wait_for(lambda: np.abs(self.left_joints() - goal).max() < 5e-3, WAIT, "the left arm to reach the goal")
         took = (self.joint_state.header.stamp - t0).to_sec()
         rospy.loginfo(f"rt_sim_node: trajectory of 1.5 s reached its goal after {took:.3f} s of sim time")
         self.assertGreater(took, 1.2)  # it followed the timing, it did not jump
+        wait_for(lambda: rospy.Time.now() > t0 + rospy.Duration(1.8), WAIT, "the trajectory's end (resets wait for it)")
         tool = self.tf_buffer.lookup_transform("world", "left_tool0", rospy.Time(0), rospy.Duration(10.0))
         self.assertIsNotNone(tool)
 
@@ -145,6 +156,51 @@ class SimNodeTest(unittest.TestCase):
         for o in after.objects:
             p = before[o.name]
             self.assertLess(abs(o.pose.position.x - p.x) + abs(o.pose.position.y - p.y), 1e-3)
+
+    def test_8_resets_are_counted_and_refusals_name_the_field(self) -> None:
+        wait_for(lambda: self.resets, WAIT, "the latched /pg_sim/scene_resets")
+        count = self.resets[-1]
+        res = self.reset("packed/case02")
+        self.assertTrue(res.success, res.message)
+        wait_for(lambda: self.resets[-1] == count + 1, 10.0, "the count after a successful reset")
+        refusals = [(("random", 10, -5), "seed: must be a non-negative integer, got -5"),
+                    (("random", 25, 1), "num_objects: a random scene needs num_objects in [1, 20], got 25"),
+                    (("../../../../../../../../etc/passwd", 0, 0), "scene '../../../../../../../../etc/passwd' "
+                                                                   "(resolved: '/etc/passwd') is outside the allowed")]
+        for (scene, n, seed), match in refusals:
+            res = self.reset(scene, n, seed)
+            self.assertFalse(res.success)
+            self.assertEqual(res.message[:len("reset refused, scene unchanged: ")], "reset refused, scene unchanged: ")
+            self.assertIn(match, res.message)
+        os.makedirs(SCENE_FOLDER, exist_ok=True)
+        folder = tempfile.mkdtemp(dir=SCENE_FOLDER)
+        path = os.path.join(folder, "one.yaml")
+        with open(path, "w", encoding="utf-8") as f:
+            f.write("name: one\nobjects:\n  - {shape: cube, color: green, pose: [0, 0, 2.25e-2, 0, 0, 0]}\n")
+        res = self.reset(path)
+        shutil.rmtree(folder, ignore_errors=True)
+        self.assertTrue(res.success, res.message)
+        self.assertEqual((res.scene_name, res.num_objects), ("one", 1))
+        wait_for(lambda: self.resets[-1] == count + 2, 10.0, "the count after a second successful reset")
+        self.assertEqual(self.resets[-1], count + 2)  # refusals did not count
+
+    def test_9_reset_is_refused_while_an_arm_executes_a_trajectory(self) -> None:
+        self.assertTrue(self.reset("household/case11").success)
+        start = wait_for(self.left_joints, WAIT, "/joint_states")
+        goal = start + np.array([0.3, 0.15, -0.2, 0.1, 0.2, 0.4])
+        t0 = rospy.Time.now()
+        self.send_left(goal, 3.0)
+        wait_for(lambda: np.abs(self.left_joints() - start).max() > 0.02, WAIT, "the left arm to start moving")
+        counts = list(self.resets)
+        res = self.reset("packed/case03")
+        self.assertFalse(res.success)
+        self.assertTrue(res.message.startswith("busy: arm left is executing a trajectory"), res.message)
+        wait_for(lambda: rospy.Time.now() > t0 + rospy.Duration(3.3), WAIT, "the trajectory's end")
+        self.assertLess(np.abs(self.left_joints() - goal).max(), 5e-3)
+        self.assertEqual(self.scene_states[-1].scene, "household/case11")
+        self.assertEqual(self.resets, counts)  # a refusal is not counted
+        res = self.reset("packed/case03")
+        self.assertTrue(res.success, res.message)
 
 
 if __name__ == "__main__":

@@ -58,7 +58,7 @@ def test_load_marks_the_implicit_target_and_defaults(tmp_path: Path) -> None:
 def test_round_trip_save_load_equal(tmp_path: Path) -> None:
     mesh = tmp_path / "meshes" / "thing.obj"
     mesh.parent.mkdir()
-    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+    mesh.write_text("v 0 0 0\nv 0.05 0 0\nv 0 0.05 0\nv 0 0 0.05\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")  # 5 cm
     scene = SceneSpec(
         name="rt",
         target="red",

@@ -1,6 +1,6 @@
 """pg_sim.runtime.sim_runtime: the sim node's ROS-free core in PyBullet DIRECT worlds (trajectories under physics,
-grippers,
-joint states, camera, scene state, resets that validate first, output rates, pacing, thread-safe submissions)."""
+grippers, joint states, camera, scene state, resets that validate first, answer at rest and refuse while an arm moves,
+output rates, pacing, thread-safe submissions)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 
 from pg_sim.robot.trajectory import JointTrajectory, TrajectoryPoint
 from pg_sim.runtime.runtime_types import ResetRequest, RuntimeConfig
-from pg_sim.runtime.sim_runtime import SimRuntime
+from pg_sim.runtime.sim_runtime import MAX_MESSAGE, SimRuntime
 from pg_sim.scenes.scene import SceneError
 from pg_sim.world.pacer import Pacer
 from pg_sim.world.sensor_data import CLOUD_DTYPE
@@ -20,8 +20,9 @@ FAST = dict(real_time_factor=0.0, idle_real_time_factor=0.0)
 
 
 @pytest.fixture(scope="module")
-def rt():
-    runtime = SimRuntime(RuntimeConfig(**FAST))
+def rt(tmp_path_factory):
+    folders = (str(tmp_path_factory.getbasetemp()),)  # reset requests may name files under pytest's tmp_path
+    runtime = SimRuntime(RuntimeConfig(**FAST, scene_folders=folders))
     yield runtime
     runtime.close()
 
@@ -124,21 +125,32 @@ def test_scene_state_ground_truth(fresh):
 
 
 @pytest.mark.parametrize(
-    ("request_", "match"),
+    ("request_", "field", "match"),
     [
-        (ResetRequest("packed/case99"), "not found"),
-        (ResetRequest(""), "empty scene"),
-        (ResetRequest("random", 0, 1), "num_objects"),
-        (ResetRequest("random", 500, 1), "num_objects"),
-        (ResetRequest("random-5", 6, 1), "names 5 objects"),
+        (ResetRequest("packed/case99"), "scene", "not found"),
+        (ResetRequest(""), "scene", "empty scene"),
+        (ResetRequest("random", 0, 1), "num_objects", "num_objects"),
+        (ResetRequest("random-5", 6, 1), "num_objects", "names 5 objects"),
+        (ResetRequest("random", 10, -5), "seed", "must be a non-negative integer, got -5"),
+        (ResetRequest("packed/case01", 0, -5), "seed", "must be a non-negative integer, got -5"),
+        (ResetRequest("random", -3, 1), "num_objects", "must be a non-negative integer, got -3"),
+        (ResetRequest("random", 500, 1), "num_objects", "a random scene needs num_objects in [1, 40], got 500"),
+        (ResetRequest("../../../../etc/passwd"), "scene",
+         "'../../../../etc/passwd' (resolved: '/etc/passwd') is outside the allowed scene folders"),
+        (ResetRequest("/etc/passwd"), "scene", "'/etc/passwd' is outside the allowed scene folders"),
+        (ResetRequest("x" * 100000), "scene", "100000 characters, at most 1024"),
+        (ResetRequest("x" * 1000), "scene", "'xxxx"),
     ],
 )
-def test_refused_reset_changes_nothing(fresh, request_, match):
+def test_refused_reset_changes_nothing(fresh, request_, field, match):
     fresh.step()
-    before, name, t = poses(fresh), fresh.world.scene.name, fresh.sim_time
+    before, name, t, resets = poses(fresh), fresh.world.scene.name, fresh.sim_time, fresh.scene_resets
     result = fresh.reset(request_)
-    assert not result.success and match in result.message and "scene unchanged" in result.message
+    assert not result.success and match in result.message and "scene unchanged" in result.message, result.message
+    assert result.message.startswith(f"reset refused, scene unchanged: {field}"), result.message
+    assert len(result.message) <= MAX_MESSAGE
     assert fresh.world.scene.name == name and poses(fresh) == before and fresh.sim_time == t
+    assert fresh.scene_resets == resets
 
 
 def test_bad_yaml_files_are_refused(fresh, tmp_path):
@@ -148,9 +160,17 @@ def test_bad_yaml_files_are_refused(fresh, tmp_path):
     missing_mesh.write_text("objects:\n  - shape: mesh\n    mesh: nope.obj\n    color: green\n"
                             "    pose: [0, 0, 0, 0, 0, 0]\n")
     before = poses(fresh)
-    for path, match in ((bad, "unknown shape"), (missing_mesh, "mesh file not found")):
+    huge = tmp_path / "huge.yaml"
+    huge.write_text("objects:\n  - {shape: cube, size: [1e6, 1e6, 1e6], color: green, pose: [0, 0, 0, 0, 0, 0]}\n")
+    escape = tmp_path / "escape.yaml"
+    escape.write_text("objects:\n  - shape: mesh\n    mesh: ../../../../../../../../../etc/passwd\n    color: green\n"
+                      "    pose: [0, 0, 0, 0, 0, 0]\n")
+    for path, match in ((bad, "unknown shape"), (missing_mesh, "mesh file not found"),
+                        (huge, "size [1000000.0, 1000000.0, 1000000.0]: extent 1e+06 m is larger than max_object_size"),
+                        (escape, "outside the allowed mesh folders")):
         result = fresh.reset(ResetRequest(str(path)))
         assert not result.success and match in result.message, result.message
+        assert result.message.startswith(f"reset refused, scene unchanged: scene: {path}:"), result.message
     assert poses(fresh) == before
 
 
@@ -172,16 +192,36 @@ def test_reset_to_file_random_and_named_scenes(fresh, tmp_path):
     assert s.scene == "household/case11" and {o.name for o in s.objects if o.target} == {"milk_box_0"}
 
 
-def test_reset_homes_arms_and_cancels_trajectories(fresh):
+def test_reset_is_refused_while_an_arm_executes_a_trajectory(fresh):
     home = fresh.arm_joints("left")
     fresh.submit_trajectory("left", left_traj(fresh, home + 0.3, 1.0))
     fresh.submit_gripper("left", 0.0)
     fresh.run_for(0.3)
-    assert fresh.reset(ResetRequest("packed/case02")).success
-    assert not fresh.arms["left"].follower.active
+    before, resets = poses(fresh), fresh.scene_resets
+    result = fresh.reset(ResetRequest("packed/case02"))
+    assert not result.success and result.message.startswith("busy: arm left is executing a trajectory"), result.message
+    assert fresh.world.scene.name == "packed/case01" and poses(fresh) == before and fresh.scene_resets == resets
+    assert fresh.arms["left"].follower.active  # the trajectory goes on
+    pending = fresh.submit_reset(ResetRequest("packed/case02"))  # the queued path (the ROS service) alike
+    fresh.step()
+    assert not pending.wait(0).success and "busy: arm left" in pending.wait(0).message
+    run_until_idle(fresh)
+    np.testing.assert_allclose(fresh.arm_joints("left"), home + 0.3, atol=2e-3)
+
+
+def test_reset_homes_arms_and_counts_successful_resets(fresh):
+    home = fresh.arm_joints("left")
+    fresh.submit_trajectory("left", left_traj(fresh, home + 0.3, 0.5))
+    fresh.submit_gripper("left", 0.0)
+    run_until_idle(fresh)
+    resets = fresh.scene_resets
+    result = fresh.reset(ResetRequest("packed/case02"))
+    assert result.success and result.resets == resets + 1 == fresh.scene_resets
     fresh.run_for(0.2)
     np.testing.assert_allclose(fresh.arm_joints("left"), home, atol=2e-3)
     assert fresh.gripper_opening("left") == pytest.approx(fresh.geometry.gripper.max_opening, abs=2e-3)
+    assert fresh.reset(ResetRequest("packed/case02")).resets == resets + 2  # the same scene again counts too
+    assert not fresh.reset(ResetRequest("packed/nope")).success and fresh.scene_resets == resets + 2
 
 
 def test_submit_reset_from_another_thread(fresh):

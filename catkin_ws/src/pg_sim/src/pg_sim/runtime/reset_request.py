@@ -1,5 +1,9 @@
 """A scene reset request of the sim node (pg_msgs/ResetScene) resolved into a scene, checked before anything
-changes: a shipped name or YAML file, or a generated family (random, novel, mixed, ...) of N objects from a seed."""
+changes: a shipped name or YAML file, or a generated family (random, novel, mixed, ...) of N objects from a seed.
+
+Every refusal is a SceneError whose message starts with the request field it is about (``scene``, ``num_objects``,
+``seed``) and shows the offending value shortened (pg_sim.scenes.short_repr).
+"""
 
 from __future__ import annotations
 
@@ -8,40 +12,63 @@ import pybullet as p
 from pg_sim.runtime.runtime_types import ResetRequest
 from pg_sim.scenes.objects import build_shape
 from pg_sim.scenes.scene import SceneError, SceneSpec, find_scene, load_scene
+from pg_sim.scenes.scene_folders import AllowedFolders
+from pg_sim.scenes.scene_limits import DEFAULT_LIMITS, SceneLimits
+from pg_sim.scenes.short_repr import short
 from pg_sim.world.scene_families import FAMILIES, MAX_OBJECTS, parse_generated, sample_family
 
 MAX_RANDOM_OBJECTS = MAX_OBJECTS  # largest generated scene a reset accepts
+MAX_SCENE_TEXT = 1024  # characters: longest scene name or path a reset accepts
 
 
-def resolve_reset(req: ResetRequest) -> tuple[SceneSpec, bool]:
+def resolve_reset(req: ResetRequest, limits: SceneLimits = DEFAULT_LIMITS,
+                  folders: AllowedFolders | None = None) -> tuple[SceneSpec, bool]:
     """The scene of a request and whether it is a generated drop (``random``, ``novel``, ... with num_objects, or
-    ``<family>-N``); raises SceneError/ValueError before any change."""
+    ``<family>-N``); raises SceneError before any change. Scene files are held to ``limits``; with ``folders`` (a
+    request from another process) scene and mesh files must lie in them, else any path is read."""
     text = (req.scene or "").strip()
     if not text:
-        raise SceneError("empty scene: give a shipped scene name (e.g. packed/case01), a YAML file or 'random'")
+        raise SceneError("scene: empty scene name: give a shipped scene name (e.g. packed/case01), a YAML file or "
+                         "'random'")
+    if len(text) > MAX_SCENE_TEXT:
+        raise SceneError(f"scene: {len(text)} characters, at most {MAX_SCENE_TEXT}: {short(text)}")
+    seed, count = int(req.seed), int(req.num_objects)
+    if seed < 0:
+        raise SceneError(f"seed: must be a non-negative integer, got {seed}")
+    if count < 0:
+        raise SceneError(f"num_objects: must be a non-negative integer, got {count}")
     parsed = parse_generated(text)
     if text in FAMILIES or parsed:
-        family, n = parsed if parsed else (text, int(req.num_objects))
-        if parsed and req.num_objects and int(req.num_objects) != n:
-            raise SceneError(f"scene {text!r} names {n} objects but num_objects is {req.num_objects}")
-        if not 1 <= n <= MAX_RANDOM_OBJECTS:
-            raise SceneError(f"a {family} scene needs num_objects in [1, {MAX_RANDOM_OBJECTS}], got {n}")
-        scene, random = sample_family(f"{family}-{n}", int(req.seed)), True
+        family, n = parsed if parsed else (text, count)
+        if parsed and count and count != n:
+            raise SceneError(f"num_objects: scene {short(text)} names {n} objects but num_objects is {count}")
+        most = min(MAX_RANDOM_OBJECTS, limits.max_objects)
+        if not 1 <= n <= most:
+            raise SceneError(f"num_objects: a {family} scene needs num_objects in [1, {most}], got {n}")
+        scene, generated = sample_family(f"{family}-{n}", seed), True
     else:
-        scene, random = load_scene(find_scene(text)), False
+        try:
+            path = folders.find_scene(text) if folders is not None else find_scene(text)  # messages: "scene ..."
+        except OSError as e:  # e.g. a name too long for the file system
+            raise SceneError(f"scene {short(text, 160)}: {e.strerror}") from None
+        try:
+            scene = load_scene(path, limits, folders.meshes if folders is not None else None)
+        except SceneError as e:
+            raise SceneError(f"scene: {e}") from None
+        generated = False
     check_buildable(scene)
-    return scene, random
+    return scene, generated
 
 
 def check_buildable(scene: SceneSpec) -> None:
-    """Build every object's shapes in a scratch PyBullet client; raises ValueError naming the first that fails."""
+    """Build every object's shapes in a scratch PyBullet client; raises SceneError naming the first that fails."""
     client = p.connect(p.DIRECT)
     try:
         for spec in scene.objects:
             try:
                 build_shape(client, spec)
             except (ValueError, OSError, RuntimeError, p.error) as e:
-                raise SceneError(f"scene {scene.name!r}: object {spec.name!r} ({spec.shape}) cannot be built: {e}") \
-                    from None
+                raise SceneError(f"scene {short(scene.name)}: object {short(spec.name)} ({spec.shape}) cannot be "
+                                 f"built: {e}") from None
     finally:
         p.disconnect(client)

@@ -8,6 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pg_sim.scenes.scene_limits import DEFAULT_LIMITS, SceneLimits
+from pg_sim.world.rest import REST_TIMEOUT
 from pg_sim.world.sensor_data import ObjectMarker
 
 
@@ -22,11 +24,15 @@ class ResetRequest:
 
 @dataclass(frozen=True)
 class ResetResult:
+    """The answer to a reset; ``resets`` counts the successful resets since start-up, this one included (0: the
+    initial scene)."""
+
     success: bool
     message: str
     scene_name: str = ""
     target: str = ""
     num_objects: int = 0
+    resets: int = 0
 
 
 class PendingReset:
@@ -104,7 +110,9 @@ class StepOutput:
 
 @dataclass(frozen=True)
 class RuntimeConfig:
-    """Rates are in Hz of sim time (<= 0 disables the output); real-time factors: 0 = as fast as possible."""
+    """Rates are in Hz of sim time (<= 0 disables the output); real-time factors: 0 = as fast as possible.
+    ``limits`` bound every scene file, ``scene_folders`` are added to the folders that reset requests may name files
+    in (pg_sim.scenes.scene_folders), ``rest_timeout`` is the sim time (s) a reset gives moving objects to stop."""
 
     scene: str = "packed/case01"
     seed: int = 0
@@ -117,3 +125,6 @@ class RuntimeConfig:
     scene_state_rate: float = 2.0
     real_time_factor: float = 0.0       # cap while something moves
     idle_real_time_factor: float = 1.0  # cap while nothing moves
+    limits: SceneLimits = DEFAULT_LIMITS
+    scene_folders: tuple[str, ...] = ()
+    rest_timeout: float = REST_TIMEOUT

@@ -5,8 +5,10 @@
   joint velocity limit) and gripper opening commands (metres, clamped to [0, max_opening]);
 - reports what is due at this sim time: /clock ticks, joint states, camera captures (organised cloud included), the
   ground-truth scene state with object markers;
-- resets to a shipped scene name, a scene YAML file or ``random`` N objects from a seed, validating first: a refused
-  reset changes nothing;
+- resets to a shipped scene name, a scene YAML file or ``random`` N objects from a seed, validating first (scene
+  limits, allowed folders: pg_sim.runtime.reset_request) and answering success only once the scene is at rest with
+  its target in the workspace (pg_sim.runtime.scene_swap); a refused reset changes nothing; a reset while an arm
+  executes a trajectory is refused ("busy"); ``scene_resets`` counts the successful resets;
 - paces sim time against wall time (`Pacer`): as fast as possible (or at most ``real_time_factor``) while something
   moves, ``idle_real_time_factor`` (default real time) while nothing does, so an idle sim sleeps.
 
@@ -21,7 +23,9 @@ the table (z < FALLEN_Z) is frozen there (made static) so it does not fall forev
 from __future__ import annotations
 
 import queue
+import textwrap
 import time
+from dataclasses import replace
 
 import numpy as np
 import pybullet as p
@@ -40,10 +44,11 @@ from pg_sim.runtime.runtime_types import (
     SceneState,
     StepOutput,
 )
+from pg_sim.runtime.scene_swap import swap_scene
 from pg_sim.scenes.colors import color_name, nearest_color_name, rgba
 from pg_sim.scenes.scene import SceneError, SceneSpec
+from pg_sim.scenes.scene_folders import AllowedFolders
 from pg_sim.world.pacer import Pacer, Periodic
-from pg_sim.world.random_scene import drop_scene
 from pg_sim.world.sensor_data import CloudBuilder, MarkerPart, ObjectMarker, depth_with_nan, marker_parts, pose_parts
 from pg_sim.world.world import World
 
@@ -56,6 +61,7 @@ OBJECT_LIN_TOL = 0.01    # m/s: an object moving faster than this keeps the sim 
 OBJECT_ANG_TOL = 0.1     # rad/s
 MAX_START_DELAY = 10.0   # s: a trajectory stamped further in the future is refused (a wall-clock stamp, surely)
 CAMERA_REUSE_MAX = 5.0   # s: an unchanged scene re-uses its last render for at most this long
+MAX_MESSAGE = 600        # characters: longest reset answer (longer ones are cut)
 
 
 class _Arm:
@@ -87,7 +93,10 @@ class SimRuntime:
     def __init__(self, config: RuntimeConfig | None = None, geometry: Geometry | None = None,
                  pacer: Pacer | None = None) -> None:
         self.config = cfg = config or RuntimeConfig()
-        first = resolve_reset(ResetRequest(cfg.scene, cfg.num_objects, cfg.seed))  # raises SceneError: no world yet
+        # the initial scene is the operator's (a parameter): any path; raises SceneError: no world yet
+        first = resolve_reset(ResetRequest(cfg.scene, cfg.num_objects, cfg.seed), cfg.limits)
+        self.folders = AllowedFolders.default(cfg.scene_folders)
+        self.scene_resets = 0
         self.world = World(geometry, gui=cfg.gui, time_step=cfg.time_step)
         self.geometry = self.world.geometry
         self.pacer = pacer or Pacer(cfg.real_time_factor, cfg.idle_real_time_factor)
@@ -175,12 +184,23 @@ class SimRuntime:
         return target
 
     def reset(self, request: ResetRequest) -> ResetResult:
-        """Load a scene (validated first: on refusal nothing changes); arms homed, grippers open."""
+        """Load a scene requested from outside (validated first: scene files within the allowed folders and limits;
+        on refusal nothing changes); arms homed, grippers open. Refused ("busy") while an arm executes a trajectory.
+        The message is at most MAX_MESSAGE characters."""
+        executing = [name for name, a in self.arms.items() if a.follower.active]
+        if executing:
+            return ResetResult(False, f"busy: arm {executing[0]} is executing a trajectory; reset refused, "
+                                      "scene unchanged")
         try:
-            resolved = resolve_reset(request)
+            resolved = resolve_reset(request, self.config.limits, self.folders)
         except (SceneError, ValueError, OSError, RuntimeError) as e:
-            return ResetResult(False, f"reset refused, scene unchanged: {e}")
-        return self._apply_reset(*resolved)
+            result = ResetResult(False, f"reset refused, scene unchanged: {e}")
+        else:
+            result = self._apply_reset(*resolved)
+        if result.success:
+            self.scene_resets += 1
+            result = replace(result, resets=self.scene_resets)
+        return replace(result, message=textwrap.shorten(result.message, MAX_MESSAGE, placeholder=" [...]"))
 
     # -- stepping ----------------------------------------------------------------------------------------------
     def step(self) -> StepOutput:
@@ -307,25 +327,10 @@ class SimRuntime:
             except (TrajectoryError, KeyError, ValueError) as e:
                 messages.append(f"{arm} {kind} command refused: {e}")
 
-    def _apply_reset(self, scene: SceneSpec, random: bool) -> ResetResult:
-        w = self.world
-        previous = w.snapshot() if w.scene is not None else None
-        try:
-            if random:
-                drop_scene(w, scene)
-            else:
-                w.load_scene(scene)
-        except Exception as e:  # restore the previous objects (at their last poses)
-            w.clear_objects()
-            if previous is not None:
-                w.load_scene(previous, settle=False)
-            self._after_scene_change()
-            return ResetResult(False, f"reset failed while loading {scene.name!r}, previous scene restored: {e}")
+    def _apply_reset(self, scene: SceneSpec, generated: bool) -> ResetResult:
+        result = swap_scene(self.world, scene, generated, self.config.rest_timeout)
         self._after_scene_change()
-        loaded = w.scene
-        assert loaded is not None
-        return ResetResult(True, f"loaded {loaded.name} ({len(w.objects)} objects, target {loaded.target})",
-                           loaded.name, loaded.target, len(w.objects))
+        return result
 
     def _after_scene_change(self) -> None:
         g = self.geometry

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from pg_core.palette import COLORS, PALETTE, RGB, TARGET_COLOR, palette_rgb
+from pg_sim.scenes.short_repr import short
 
 __all__ = ["COLORS", "PALETTE", "RGB", "TARGET_COLOR", "color_name", "nearest_color_name", "resolve_color", "rgba"]
 
@@ -27,15 +28,15 @@ def resolve_color(value: str | Sequence[int]) -> RGB:
     try:
         items = list(value)
     except TypeError:
-        raise ValueError(f"colour must be a name or [r, g, b] with 0-255 integers, got {value!r}") from None
+        raise ValueError(f"colour must be a name or [r, g, b] with 0-255 integers, got {short(value)}") from None
     if len(items) != 3:
-        raise ValueError(f"colour must have 3 components [r, g, b], got {len(items)}: {value!r}")
+        raise ValueError(f"colour must have 3 components [r, g, b], got {len(items)}: {short(value)}")
     out: list[int] = []
     for c in items:
         if isinstance(c, bool) or not isinstance(c, int | float) or float(c) != int(c):
-            raise ValueError(f"colour components must be integers 0-255, got {value!r}")
+            raise ValueError(f"colour components must be integers 0-255, got {short(value)}")
         if not 0 <= int(c) <= 255:
-            raise ValueError(f"colour components must lie in 0-255, got {value!r}")
+            raise ValueError(f"colour components must lie in 0-255, got {short(value)}")
         out.append(int(c))
     return (out[0], out[1], out[2])
 

@@ -14,9 +14,11 @@ objects:
     target: true              # optional; exactly one target. Without one, the unique object of the target colour
     name: target_cube         # optional, unique; default <shape>_<index>
 ```
-Every problem raises ``SceneError`` (a ValueError) naming the file, the object index, the YAML line where known and
-what is wrong. Scene names are paths relative to a scene folder without ``.yaml`` (``packed/case01``); the folders are
-``$PG_SCENE_PATH`` (os.pathsep-separated) then the package's ``scenes/``.
+Every problem raises ``SceneError`` (a ValueError) naming the file, the object index, the YAML line where known,
+the field and its (shortened) value. Numbers may be written as YAML 1.2 reads them (``1e-3``; scene_yaml). Scenes
+are held to `scene_limits.SceneLimits` (number of objects, object extents, distance from the workspace). Scene names
+are paths relative to a scene folder without ``.yaml`` (``packed/case01``); the folders are ``$PG_SCENE_PATH``
+(os.pathsep-separated) then the package's ``scenes/``.
 """
 
 from __future__ import annotations
@@ -24,15 +26,20 @@ from __future__ import annotations
 import difflib
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import yaml
 
+from pg_core.palette import shown_name
 from pg_sim.scenes.colors import PALETTE, color_name, resolve_color
+from pg_sim.scenes.meshes import mesh_extents
+from pg_sim.scenes.scene_limits import DEFAULT_LIMITS, SceneLimits
+from pg_sim.scenes.scene_yaml import SceneLoader
 from pg_sim.scenes.shapes import REGISTRY, known_shapes
+from pg_sim.scenes.short_repr import short
 
 SCENE_PATH_ENV = "PG_SCENE_PATH"
 _PKG_SCENES = (
@@ -129,13 +136,14 @@ def _numbers(value: Any, count: int | tuple[int, ...], what: str) -> tuple[float
     counts = (count,) if isinstance(count, int) else count
     if not isinstance(value, list | tuple) or len(value) not in counts:
         n = len(value) if isinstance(value, list | tuple) else type(value).__name__
-        raise ValueError(f"{what} must be a list of {' or '.join(map(str, counts))} numbers, got {n}: {value!r}")
+        raise ValueError(f"{what} must be a list of {' or '.join(map(str, counts))} numbers, got {n}: {short(value)}")
     if not all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in value):
-        raise ValueError(f"{what} must contain finite numbers only, got {value!r}")
+        raise ValueError(f"{what} must contain finite numbers only, got {short(value)}")
     return tuple(float(v) for v in value)
 
 
-def _parse_object(raw: Any, i: int, source: str, base_dir: Path, lines: _Lines) -> ObjectSpec:
+def _parse_object(raw: Any, i: int, source: str, base_dir: Path, lines: _Lines, limits: SceneLimits,
+                  mesh_folders: Sequence[Path] | None) -> ObjectSpec:
     def fail(what: str, key: str | None = None) -> SceneError:
         return _fail(source, lines.obj(i, key), what, i)
 
@@ -144,19 +152,20 @@ def _parse_object(raw: Any, i: int, source: str, base_dir: Path, lines: _Lines) 
     unknown = set(raw) - _OBJECT_KEYS
     if unknown:
         key = str(next(iter(unknown)))
-        raise fail(f"unknown key(s) {sorted(map(str, unknown))}; allowed: {sorted(_OBJECT_KEYS)}", key)
+        raise fail(f"unknown key(s) {short(sorted(map(str, unknown)))}; allowed: {sorted(_OBJECT_KEYS)}", key)
     for key in ("shape", "color", "pose"):
         if key not in raw:
             raise fail(f"missing required key {key!r}")
     shape = raw["shape"]
     if not isinstance(shape, str) or shape not in known_shapes():
-        raise fail(f"unknown shape {shape!r}; known shapes: {', '.join(known_shapes())}", "shape")
+        raise fail(f"unknown shape {short(shape)}; known shapes: {', '.join(known_shapes())}", "shape")
     try:
         color = resolve_color(raw["color"])
     except ValueError as e:
         raise fail(str(e), "color") from None
     try:
         pose = _numbers(raw["pose"], 6, "pose [x, y, z, roll, pitch, yaw]")
+        limits.check_position(pose[:3])
     except ValueError as e:
         raise fail(str(e), "pose") from None
     size = None
@@ -170,46 +179,60 @@ def _parse_object(raw: Any, i: int, source: str, base_dir: Path, lines: _Lines) 
                 sc = raw["scale"]
                 vals = _numbers([sc] * 3 if isinstance(sc, int | float) else sc, 3, "scale")
                 if min(vals) <= 0:
-                    raise ValueError(f"scale must be positive, got {sc!r}")
+                    raise ValueError(f"scale must be positive, got {short(sc)}")
                 scale = (vals[0], vals[1], vals[2])
         elif "scale" in raw:
             raise ValueError("`scale` is for mesh objects only; use `size`")
         elif raw.get("size") is not None:
             size = tuple(REGISTRY[shape].resolve_size(_numbers(raw["size"], 3, "size [x, y, z]")))
+            limits.check_extents(size, "size")
     except ValueError as e:
         raise fail(str(e), "size" if "size" in raw else "scale") from None
     if shape == "mesh":
         if not isinstance(raw.get("mesh"), str) or not raw["mesh"]:
             raise fail("shape `mesh` needs `mesh: path/to/file.obj`")
         path = Path(os.path.expanduser(raw["mesh"]))
-        path = path if path.is_absolute() else base_dir / path
+        path = (path if path.is_absolute() else base_dir / path).resolve()
+        if mesh_folders is not None and not any(path.is_relative_to(d) for d in mesh_folders):
+            raise fail(f"mesh {short(raw['mesh'], 160)} ({short(str(path), 160)}) is outside the allowed mesh folders "
+                       f"{short([str(d) for d in mesh_folders], 160)}", "mesh")
         if not path.is_file():
             raise fail(f"mesh file not found: {path}", "mesh")
-        mesh = str(path.resolve())
+        try:
+            extents = mesh_extents(path, scale)
+        except (ValueError, OSError) as e:
+            raise fail(str(e), "mesh") from None
+        try:
+            limits.check_extents(extents, "mesh extents (scaled)")
+        except ValueError as e:
+            raise fail(str(e), "scale" if "scale" in raw else "mesh") from None
+        mesh = str(path)
     elif "mesh" in raw:
         raise fail(f"`mesh` is only valid with shape `mesh`, not {shape!r}", "mesh")
     target = raw.get("target", False)
     if not isinstance(target, bool):
-        raise fail(f"target must be true or false, got {target!r}", "target")
+        raise fail(f"target must be true or false, got {short(target)}", "target")
     name = raw.get("name", f"{shape}_{i}")
     if not isinstance(name, str) or not name:
-        raise fail(f"name must be a non-empty string, got {name!r}", "name")
+        raise fail(f"name must be a non-empty string, got {short(name)}", "name")
     mass = raw.get("mass")
     if mass is not None and (isinstance(mass, bool) or not isinstance(mass, int | float)
                              or not MIN_MASS <= mass <= MAX_MASS):
-        raise fail(f"mass must be a number of kg in [{MIN_MASS}, {MAX_MASS}], got {mass!r}", "mass")
+        raise fail(f"mass must be a number of kg in [{MIN_MASS}, {MAX_MASS}], got {short(mass)}", "mass")
     return ObjectSpec(shape, size, color, pose, mesh, target, name, scale,  # type: ignore[arg-type]
                       None if mass is None else float(mass))
 
 
 def parse_scene(
-    mapping: Any, source: str = "<scene>", base_dir: str | Path | None = None, node: yaml.Node | None = None
+    mapping: Any, source: str = "<scene>", base_dir: str | Path | None = None, node: yaml.Node | None = None,
+    limits: SceneLimits = DEFAULT_LIMITS, mesh_folders: Sequence[str | os.PathLike[str]] | None = None,
 ) -> SceneSpec:
     """Validate a scene mapping (as read from YAML) into a SceneSpec whose target object is marked.
 
     ``source`` names the origin in messages, ``base_dir`` resolves relative mesh paths (default: the folder of
     ``source`` if it is a file, else the working directory), ``node`` (from yaml.compose) supplies line numbers.
-    Raises SceneError.
+    ``limits`` bound the objects; ``mesh_folders`` (None: anywhere) are the folders mesh files may lie in, checked
+    before a mesh file is touched. Raises SceneError.
     """
     lines = _Lines(node)
     src_path = Path(source)
@@ -219,21 +242,28 @@ def parse_scene(
     unknown = set(mapping) - _TOP_KEYS
     if unknown:
         key = str(next(iter(unknown)))
-        raise _fail(source, lines.top(key), f"unknown key(s) {sorted(map(str, unknown))}; allowed: {sorted(_TOP_KEYS)}")
+        raise _fail(source, lines.top(key),
+                    f"unknown key(s) {short(sorted(map(str, unknown)))}; allowed: {sorted(_TOP_KEYS)}")
     name = mapping.get("name", src_path.stem)
     target = mapping.get("target", "green")
     if not isinstance(target, str) or target.strip().lower().replace("grey", "gray") not in PALETTE:
-        raise _fail(source, lines.top("target"), f"unknown target colour {target!r}; known: {', '.join(PALETTE)}")
+        raise _fail(source, lines.top("target"),
+                    f"unknown target colour {shown_name(target)}; known: {', '.join(PALETTE)}")
     target = target.strip().lower().replace("grey", "gray")
     family = mapping.get("family") or _family_of(src_path)
     objs = mapping.get("objects")
     if not isinstance(objs, list) or not objs:
         raise _fail(source, lines.top("objects"), "`objects` must be a non-empty list")
-    specs = [_parse_object(raw, i, source, base, lines) for i, raw in enumerate(objs)]
+    try:
+        limits.check_count(len(objs))
+    except ValueError as e:
+        raise _fail(source, lines.top("objects"), str(e)) from None
+    folders = None if mesh_folders is None else tuple(Path(d).resolve() for d in mesh_folders)
+    specs = [_parse_object(raw, i, source, base, lines, limits, folders) for i, raw in enumerate(objs)]
     seen: dict[str, int] = {}
     for i, o in enumerate(specs):
         if o.name in seen:
-            raise _fail(source, lines.obj(i, "name"), f"duplicate name {o.name!r} (also object {seen[o.name]})", i)
+            raise _fail(source, lines.obj(i, "name"), f"duplicate name {short(o.name)} (also object {seen[o.name]})", i)
         seen[o.name] = i
     flagged = [i for i, o in enumerate(specs) if o.target]
     if len(flagged) == 1:
@@ -260,8 +290,9 @@ def _refuse_shared_target_colour(specs: list[ObjectSpec], target: int, source: s
     for i, o in enumerate(specs):
         if i != target and o.color == rgb:
             raise _fail(source, lines.obj(i, "color"),
-                        f"object {i} ({o.name!r}) has the colour {color_name(rgb) or list(rgb)} of the target, object "
-                        f"{target} ({specs[target].name!r}): the goal would be ambiguous; give it another colour", i)
+                        f"object {i} ({short(o.name)}) has the colour {color_name(rgb) or list(rgb)} of the target, "
+                        f"object {target} ({short(specs[target].name)}): the goal would be ambiguous; give it another "
+                        "colour", i)
 
 
 def _family_of(path: Path) -> str:
@@ -275,14 +306,16 @@ def _family_of(path: Path) -> str:
     return "custom"
 
 
-def load_scene(path_or_name: str | os.PathLike[str]) -> SceneSpec:
-    """Read and validate a scene file (a path, or a scene name such as ``packed/case01``). Raises SceneError."""
+def load_scene(path_or_name: str | os.PathLike[str], limits: SceneLimits = DEFAULT_LIMITS,
+               mesh_folders: Sequence[str | os.PathLike[str]] | None = None) -> SceneSpec:
+    """Read and validate a scene file (a path, or a scene name such as ``packed/case01``) within ``limits``, its
+    meshes in ``mesh_folders`` (None: anywhere). Raises SceneError."""
     path = find_scene(path_or_name)
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as e:
         raise SceneError(f"{path}: cannot read scene file: {e}") from None
-    loader = yaml.SafeLoader(text)
+    loader = SceneLoader(text)
     try:
         node = loader.get_single_node()
         data = loader.construct_document(node) if node is not None else None
@@ -292,7 +325,7 @@ def load_scene(path_or_name: str | os.PathLike[str]) -> SceneSpec:
         raise _fail(str(path), line, f"YAML syntax error: {getattr(e, 'problem', None) or e}") from None
     finally:
         loader.dispose()
-    return parse_scene(data, str(path), path.parent, node)
+    return parse_scene(data, str(path), path.parent, node, limits, mesh_folders)
 
 
 def scene_to_dict(scene: SceneSpec, base_dir: str | Path | None = None) -> dict[str, Any]:
@@ -359,4 +392,4 @@ def find_scene(name_or_path: str | os.PathLike[str]) -> Path:
     known = list_scenes()
     close = difflib.get_close_matches(name, known, n=5, cutoff=0.5)
     hint = f"; did you mean: {', '.join(close)}?" if close else (f"; known scenes: {', '.join(known)}" if known else "")
-    raise SceneError(f"scene {text!r} not found as a file or in {[str(d) for d in scene_dirs()]}{hint}")
+    raise SceneError(f"scene {short(text, 160)} not found as a file or in {[str(d) for d in scene_dirs()]}{hint}")

@@ -1,0 +1,65 @@
+"""Replacing the sim node's objects by a checked scene, answering success only for a scene at rest with its target in
+the workspace; on any failure the previous objects are put back (at their poses before the swap).
+
+A generated scene is dropped (pg_sim.world.random_scene.drop_scene), a scene file loaded and settled
+(World.load_scene). Objects still moving afterwards are damped to rest (pg_sim.world.rest.bring_to_rest, at most
+``rest_timeout`` s of sim time). Refused, previous scene restored, message naming the object: an object that does not
+come to rest, a target that comes to rest outside the workspace box (pg_core.geometry.Workspace).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pybullet as p
+
+from pg_sim.runtime.runtime_types import ResetResult
+from pg_sim.scenes.scene import SceneSpec
+from pg_sim.scenes.short_repr import short
+from pg_sim.world.random_scene import drop_scene
+from pg_sim.world.rest import bring_to_rest
+from pg_sim.world.world import World
+
+
+class SwapFailed(Exception):
+    """The new scene is not usable (message says why); the caller's scene is restored."""
+
+
+def swap_scene(world: World, scene: SceneSpec, generated: bool, rest_timeout: float) -> ResetResult:
+    """Load ``scene`` into ``world`` (``generated``: drop it from its drop poses) and bring it to rest; returns the
+    result (unsuccessful: the previous objects are back). Arms are left to the caller (they are homed by loading)."""
+    previous = world.snapshot() if world.scene is not None else None
+    try:
+        if generated:
+            drop_scene(world, scene)
+        else:
+            world.load_scene(scene)
+        _check_at_rest(world, rest_timeout)
+        _check_target_inside(world)
+    except Exception as e:  # noqa: BLE001 - whatever failed, the previous objects come back and the caller hears why
+        world.clear_objects()
+        if previous is not None:
+            world.load_scene(previous, settle=False)
+        why = str(e) or type(e).__name__
+        return ResetResult(False, f"reset failed while loading {short(scene.name)}, previous scene restored: {why}")
+    loaded = world.scene
+    assert loaded is not None
+    return ResetResult(True, f"loaded {loaded.name} ({len(world.objects)} objects, target {loaded.target})",
+                       loaded.name, loaded.target, len(world.objects))
+
+
+def _check_at_rest(world: World, rest_timeout: float) -> None:
+    report = bring_to_rest(world, rest_timeout)
+    if not report.at_rest:
+        raise SwapFailed(f"object(s) {short(list(report.moving))} still moving after {report.time:.1f} s of "
+                         f"damping (rest_timeout {rest_timeout:g} s)")
+
+
+def _check_target_inside(world: World) -> None:
+    target = world.target_id
+    if target is None:
+        return
+    pos, _ = p.getBasePositionAndOrientation(target, physicsClientId=world.client)
+    if not world.geometry.workspace.contains(np.asarray(pos)):
+        spec = world.objects[target]
+        xyz = ", ".join(f"{v:.3f}" for v in pos)
+        raise SwapFailed(f"target {short(spec.name)} ({spec.shape}) came to rest outside the workspace at ({xyz}) m")
