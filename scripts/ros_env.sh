@@ -1,7 +1,16 @@
 # Source me: `source scripts/ros_env.sh` puts the project's ROS environment in the current shell:
 # the catkin devel space (pg_msgs, package paths) and the project venv first on PATH, so that rospy nodes
 # (`#!/usr/bin/env python3`) run with the venv's Python (torch, pybullet). Debian's ROS needs no /opt/ros setup.
-# Environment: PG_DEVEL_DIR (default catkin_ws/devel).
+# Environment: PG_DEVEL_DIR (default catkin_ws/devel); PG_ROS_NETWORK (network, below).
+#
+# Network: loopback unless asked otherwise. When neither ROS_HOSTNAME nor ROS_IP is set, ROS_HOSTNAME=localhost:
+# rosmaster, roslaunch and every rospy node listen on 127.0.0.1 only, and roscpp nodes' topic and service ports too
+# (their XML-RPC port stays on 0.0.0.0: xmlrpcpp binds INADDR_ANY whatever the setting; only a firewall or a network
+# namespace closes it). ROS_MASTER_URI defaults to http://localhost:11311.
+# To reach a robot network deliberately: PG_ROS_NETWORK=<this machine's address on it> (an IP sets ROS_IP, a name
+# ROS_HOSTNAME; ROS_MASTER_URI defaults to http://<address>:11311): the master, the rospy nodes and roscpp's ports
+# then listen on all interfaces (ROS 1 cannot bind one interface), reachable by the drivers and by anyone on that
+# network. ROS_HOSTNAME, ROS_IP or ROS_MASTER_URI set before sourcing are kept as they are.
 _pg_repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 _pg_devel="${PG_DEVEL_DIR:-$_pg_repo/catkin_ws/devel}"
 if [ ! -f "$_pg_devel/setup.bash" ]; then
@@ -9,6 +18,10 @@ if [ ! -f "$_pg_devel/setup.bash" ]; then
   return 1 2>/dev/null || exit 1
 fi
 export ROS_PYTHON_VERSION=3
+if [ "${PG_ROS_NET_SET:-}" = "${ROS_HOSTNAME:-}|${ROS_IP:-}|${ROS_MASTER_URI:-}" ]; then
+  unset ROS_HOSTNAME ROS_IP ROS_MASTER_URI  # as an earlier sourcing left them: choose again (PG_ROS_NETWORK)
+fi
+_pg_master="${ROS_MASTER_URI:-}"  # the user's own, before catkin's env hooks default it
 # catkin's setup scripts read unset variables: allow that while sourcing them, even under `set -u`.
 _pg_nounset=$([[ $- == *u* ]] && echo 1 || true)
 set +u
@@ -24,5 +37,22 @@ case ":$PATH:" in
   *":$_pg_repo/.venv/bin:"*) ;;
   *) export PATH="$_pg_repo/.venv/bin:$PATH" ;;
 esac
+# Network (header). A master elsewhere without an address of this machine: ROS's own default (all interfaces).
+_pg_host="${PG_ROS_NETWORK:-localhost}"
+[[ "$_pg_host" == *:* ]] && _pg_host="[$_pg_host]"
+export ROS_MASTER_URI="${_pg_master:-http://$_pg_host:11311}"
+if [ -z "${ROS_HOSTNAME:-}" ] && [ -z "${ROS_IP:-}" ]; then
+  if [[ "${PG_ROS_NETWORK:-}" =~ ^[0-9.]+$ || "${PG_ROS_NETWORK:-}" == *:* ]]; then
+    export ROS_IP="$PG_ROS_NETWORK"
+  elif [ -n "${PG_ROS_NETWORK:-}" ]; then
+    export ROS_HOSTNAME="$PG_ROS_NETWORK"
+  elif [[ "$ROS_MASTER_URI" =~ ^http://(localhost|127\.[0-9.]+)(:[0-9]+)?/?$ ]]; then
+    export ROS_HOSTNAME=localhost
+  else
+    echo "ros_env.sh: ROS_MASTER_URI=$ROS_MASTER_URI is not this machine: ROS ports listen on all interfaces;" \
+         "set PG_ROS_NETWORK (or ROS_IP) to this machine's address on that network" >&2
+  fi
+fi
+export PG_ROS_NET_SET="${ROS_HOSTNAME:-}|${ROS_IP:-}|${ROS_MASTER_URI}"
 export PG_REPO="$_pg_repo"
-unset _pg_repo _pg_devel _pg_nounset
+unset _pg_repo _pg_devel _pg_nounset _pg_master _pg_host

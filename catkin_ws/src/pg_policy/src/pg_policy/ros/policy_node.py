@@ -9,8 +9,14 @@ folder name, a model directory or a TorchScript file); the declared policy optio
 the model's own), ~heightmap_timeout (5.0 wall s),
 ~primitive_timeout (60.0 s per primitive), ~max_actions (30), ~max_failed_grasps (5), ~call_timeout (600 wall s),
 ~execute_service ("/pg/execute_primitive"), ~dry_run (false: grasp_target refused; every new heightmap is decided
-on and published on /pg/dry_run/decisions).
-A missing or corrupt model file ends the node at start-up with the reason (exit status 1).
+on and published on /pg/dry_run/decisions), ~scene_resets_topic ("/pg_sim/scene_resets": std_msgs/UInt32, latched,
+the simulator's count of scene resets; a change during a call ends it with "the scene was reset during the call";
+on a real cell nothing publishes it and the subscriber never fires).
+A missing or corrupt model file, or a limit parameter out of range, ends the node at start-up with the reason (exit
+status 1). A request with a negative max_actions / max_failed_grasps or a NaN, infinite or negative timeout is
+refused with a message naming the field; nothing moves.
+Threads: every policy computation runs on the TargetLoop's one worker thread, whichever service or action thread
+asked (pg_policy.target_loop.worker: keeps the RSS flat over calls).
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ from pg_msgs.msg import Decision as DecisionMsg
 from pg_msgs.msg import GraspTargetAction, GraspTargetFeedback, GraspTargetResult
 from pg_msgs.srv import GraspTarget, GraspTargetResponse, Infer, InferResponse
 from sensor_msgs.msg import Image
+from std_msgs.msg import UInt32
 from visualization_msgs.msg import MarkerArray
 
 from pg_conversions.heightmap_msg import image_msg
@@ -32,7 +39,15 @@ from pg_policy.policies.policy import PolicyOptions
 from pg_policy.policies.registry import make_policy
 from pg_policy.ros import convert
 from pg_policy.ros.loop_io import ServiceExecutor, TopicHeightmapSource
-from pg_policy.target_loop.target_loop import LoopError, LoopLimits, NoHeightmap, StampedHeightmap, TargetLoop, mask_of
+from pg_policy.target_loop.target_loop import (
+    LoopError,
+    LoopLimits,
+    NoHeightmap,
+    StampedHeightmap,
+    TargetLoop,
+    mask_of,
+    request_limits,
+)
 
 BUSY = "busy: another grasp_target call is running"
 
@@ -52,9 +67,12 @@ class PolicyNode:
                                              DecisionMsg, queue_size=100)
         self.pub_q = rospy.Publisher("/pg/q_map", Image, queue_size=1, latch=True)
         self.pub_markers = rospy.Publisher("/pg/markers", MarkerArray, queue_size=1, latch=True)
+        self.scene_resets_: int | None = None  # latest simulator reset count; None: none heard (a real cell)
+        self.sub_resets_ = rospy.Subscriber(str(rospy.get_param("~scene_resets_topic", "/pg_sim/scene_resets")),
+                                            UInt32, self._on_scene_resets, queue_size=10)
         self.loop = TargetLoop(policy, self.source, executor, rospy.get_time, self.policy_name,
                                float(rospy.get_param("~heightmap_timeout", 5.0)), on_action=self._publish_action,
-                               on_decision=self._visualise)
+                               on_decision=self._visualise, scene_epoch=lambda: self.scene_resets_)
         self.busy = threading.Lock()
         self.feedback_ = None  # action feedback of the running call
         self.cancels_: dict[str, threading.Event] = {}
@@ -64,6 +82,9 @@ class PolicyNode:
                                               self.on_action_cancel, auto_start=False)
         self.action_.start()
         rospy.loginfo("policy node ready: policy %s%s", self.policy_name, " (dry run)" if self.dry_run else "")
+
+    def _on_scene_resets(self, msg: UInt32) -> None:
+        self.scene_resets_ = int(msg.data)
 
     def _publish_action(self, rec) -> None:
         self.pub_decisions.publish(convert.decision_msg(rec, rospy.Time.now()))
@@ -99,9 +120,10 @@ class PolicyNode:
             return {"success": False, "message": BUSY}
         self.feedback_ = feedback
         try:
-            limits = LoopLimits(req.max_actions or self.limits.max_actions,
-                                req.max_failed_grasps or self.limits.max_failed_grasps,
-                                req.timeout or self.limits.timeout_s)
+            try:
+                limits = request_limits(req.max_actions, req.max_failed_grasps, req.timeout, self.limits)
+            except ValueError as exc:
+                return {"success": False, "message": f"invalid request, nothing moved: {exc}"}
             res = self.loop.run(req.target, limits, cancelled)
         except (LoopError, ValueError) as exc:
             return {"success": False, "message": str(exc)}
@@ -165,8 +187,7 @@ class PolicyNode:
             last = shm.stamp
             with self.busy:
                 try:
-                    self.loop.policy.reset(0)  # nothing was executed: no memory of earlier decisions
-                    rec = self.loop.decide(target, shm)
+                    rec = self.loop.infer_on(target, shm)  # nothing was executed: no memory of earlier decisions
                 except LoopError as exc:
                     rospy.logwarn_throttle(5.0, str(exc))
                     continue

@@ -1,9 +1,10 @@
 """The grasp-a-target loop of the policy node, ROS-free (DESIGN.md sections 5 and 8).
 
 heightmap -> target mask -> policy decision -> execute the primitive -> wait for a fresh heightmap -> check, until
-the target is held, `max_failed_grasps` grasps failed, `max_actions` actions were taken, or the call's time budget
-is spent (or MAX_FAILED_PRIMITIVES primitives in a row were refused or aborted). The same stopping rules as
-pg_policy.evaluation.trials.run_trial; the difference is where observations and outcomes come from:
+the target is held, `max_failed_grasps` grasps failed, `max_actions` actions were taken, the call's time budget
+is spent (or MAX_FAILED_PRIMITIVES primitives in a row were refused or aborted), or the scene was replaced under
+the call (RESET_MESSAGE: the scene token `scene_epoch` changed, e.g. the simulator's reset count). The same
+stopping rules as pg_policy.evaluation.trials.run_trial; the difference is where observations and outcomes come from:
 a HeightmapSource (the /pg/heightmap topic in the node) and a PrimitiveExecutor (the /pg/execute_primitive
 service), so sim and real robot run the same loop.
 
@@ -11,13 +12,20 @@ Which object a grasp lifted is not known to a real robot: the target counts as g
 something (fingers not closed) and the target has left the next heightmap (fewer than TARGET_GONE_FRACTION of its
 cells before the grasp remain, or fewer than MIN_VISIBLE_CELLS).
 
-Times: `stamp` values are ROS time in seconds (sim time under /use_sim_time); every wait is bounded in wall-clock
-seconds, so a dead simulator (frozen clock) cannot hang a call.
+Times: `stamp` values are ROS time in seconds (sim time under /use_sim_time); every wait and the call's time budget
+are wall-clock seconds, so a dead simulator (frozen clock) cannot hang a call and a budget means the same however
+fast the simulation runs. The budget is checked between actions: the action under way always finishes (its
+primitive is given what is left of the budget, at least 1 s).
+
+Threads: every policy computation (reset, act, q_maps) of a TargetLoop runs on its one worker thread
+(pg_policy.target_loop.worker.PinnedThread) whichever thread calls run/infer/decide, so that the nets' buffers
+live in one malloc arena (the node's RSS stays flat over calls; see that module).
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -30,10 +38,12 @@ from pg_core.palette import normalize_name
 from pg_core.target_mask import MIN_VISIBLE_CELLS, hsv_window, target_mask
 from pg_policy.decision.decision import Decision
 from pg_policy.target_loop.limits import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
+from pg_policy.target_loop.worker import PinnedThread
 
 TARGET_GONE_FRACTION = 0.2
 MAX_FAILED_PRIMITIVES = 3  # refused/aborted primitives in a row that end a call (a deterministic policy repeats)
 DEFAULT_TIMEOUT_S = 600.0
+RESET_MESSAGE = "the scene was reset during the call"
 
 
 class LoopError(RuntimeError):
@@ -42,6 +52,10 @@ class LoopError(RuntimeError):
 
 class NoHeightmap(LoopError, TimeoutError):
     """No heightmap newer than the requested stamp arrived within the wait."""
+
+
+class SceneReset(LoopError):
+    """The scene token changed during a call: what the call saw and did belongs to a scene that is gone."""
 
 
 @dataclass(frozen=True)
@@ -79,11 +93,30 @@ class PrimitiveExecutor(Protocol):
 class LoopLimits:
     max_actions: int = DEFAULT_MAX_ACTIONS
     max_failed_grasps: int = DEFAULT_MAX_FAILED_GRASPS
-    timeout_s: float = DEFAULT_TIMEOUT_S  # wall seconds for the whole call
+    timeout_s: float = DEFAULT_TIMEOUT_S  # wall-clock seconds for the whole call
 
     def __post_init__(self) -> None:
-        if self.max_actions < 1 or self.max_failed_grasps < 1 or not self.timeout_s > 0:
-            raise ValueError(f"limits must be positive, got {self}")
+        """ValueError naming the field unless both counts are integers >= 1 and the timeout is finite and > 0."""
+        for name in ("max_actions", "max_failed_grasps"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        if not isinstance(self.timeout_s, numbers.Real) or not math.isfinite(self.timeout_s) or self.timeout_s <= 0:
+            raise ValueError(f"timeout must be a finite number of seconds > 0, got {self.timeout_s!r}")
+
+
+def request_limits(max_actions: int, max_failed_grasps: int, timeout: float, defaults: LoopLimits) -> LoopLimits:
+    """The limits of one grasp_target request (pg_msgs/GraspTarget): 0 in a field means the default's value.
+    ValueError naming the field for a negative count or a NaN, infinite or negative timeout."""
+    for name, value in (("max_actions", max_actions), ("max_failed_grasps", max_failed_grasps)):
+        if value < 0:
+            raise ValueError(f"{name} must be >= 0 (0: the node's default {getattr(defaults, name)}), got {value}")
+    timeout = float(timeout)
+    if not math.isfinite(timeout) or timeout < 0:
+        raise ValueError(f"timeout must be a finite number of wall-clock seconds >= 0 (0: the node's default "
+                         f"{defaults.timeout_s:g} s), got {timeout}")
+    return LoopLimits(int(max_actions) or defaults.max_actions, int(max_failed_grasps) or defaults.max_failed_grasps,
+                      timeout or defaults.timeout_s)
 
 
 @dataclass
@@ -144,12 +177,18 @@ class TargetLoop:
     anything runs (the node draws it); on_action: called with each record once its outcome is known (the node
     publishes it).
     heightmap_timeout_s: wall seconds to wait for a fresh heightmap before giving up with NoHeightmap.
+    scene_epoch: a token of the scene in front of the robot, None while unknown (the node: the simulator's latched
+    reset count; a real cell has none and never changes it). A call ends with RESET_MESSAGE when the token differs
+    from the one it started with (or, started unknown, from the first one it saw): checked before every primitive
+    and around every heightmap it waits for, i.e. between primitives.
+    Callbacks (on_decision, on_action, the `cancelled` of run) are called on the worker thread.
     """
 
     def __init__(self, policy: Any, source: HeightmapSource, executor: PrimitiveExecutor, clock: Callable[[], float],
                  policy_name: str = "", heightmap_timeout_s: float = 5.0,
                  on_action: Callable[[ActionRecord], None] | None = None,
-                 on_decision: Callable[[ActionRecord, StampedHeightmap], None] | None = None) -> None:
+                 on_decision: Callable[[ActionRecord, StampedHeightmap], None] | None = None,
+                 scene_epoch: Callable[[], object] | None = None) -> None:
         self.policy = policy
         self.source = source
         self.executor = executor
@@ -160,7 +199,10 @@ class TargetLoop:
         self.on_decision = on_decision
         self.episode = 0
         self.last_q: dict[str, np.ndarray] = {}
-        self._after: StampedHeightmap | None = None
+        self.scene_epoch = scene_epoch or (lambda: None)
+        self.worker = PinnedThread()
+        self._after: StampedHeightmap | None = None  # per call: the heightmap after the last action
+        self._epoch: object = None  # per call: the scene token the call belongs to
 
     @property
     def threshold(self) -> float:
@@ -168,6 +210,9 @@ class TargetLoop:
 
     def decide(self, target: str, shm: StampedHeightmap, index: int = 0, episode: int = 0) -> ActionRecord:
         """One decision on a heightmap; LoopError when the target is not visible there."""
+        return self.worker.call(self._decide, target, shm, index, episode)
+
+    def _decide(self, target: str, shm: StampedHeightmap, index: int = 0, episode: int = 0) -> ActionRecord:
         mask = mask_of(shm.heightmap, target)
         pixels = int(mask.sum())
         if pixels < MIN_VISIBLE_CELLS:
@@ -184,24 +229,36 @@ class TargetLoop:
     def infer(self, target: str) -> ActionRecord:
         """The decision on the first heightmap newer than now (nothing executed)."""
         target = check_target(target)
+        return self.infer_on(target, self.source.wait_after(self.clock(), self.heightmap_timeout_s))
+
+    def infer_on(self, target: str, shm: StampedHeightmap) -> ActionRecord:
+        """The decision on `shm` with no memory of earlier decisions (policy reset; nothing executed)."""
+        return self.worker.call(self._infer_on, target, shm)
+
+    def _infer_on(self, target: str, shm: StampedHeightmap) -> ActionRecord:
         self.policy.reset(0)
-        return self.decide(target, self.source.wait_after(self.clock(), self.heightmap_timeout_s))
+        return self._decide(target, shm)
 
     def run(self, target: str, limits: LoopLimits | None = None,
             cancelled: Callable[[], bool] | None = None) -> LoopResult:
         """One call: raises LoopError before anything moves (unknown colour, no heightmap, target not visible);
         later problems end the call with success False and the reason in the result's message. `cancelled` is
-        asked between actions (a running primitive always finishes); True ends the call with message "cancelled"."""
-        limits = limits or LoopLimits()
+        asked between actions (a running primitive always finishes); True ends the call with message "cancelled".
+        A scene reset (see the class) ends it with RESET_MESSAGE."""
+        return self.worker.call(self._run, target, limits or LoopLimits(), cancelled)
+
+    def _run(self, target: str, limits: LoopLimits, cancelled: Callable[[], bool] | None) -> LoopResult:
         target = check_target(target)
+        self._after, self._epoch = None, self.scene_epoch()
         t0, wall0 = self.clock(), time.monotonic()
         shm = self.source.wait_after(t0, self.heightmap_timeout_s)
         self.episode += 1
         self.policy.reset(self.episode)
         res = LoopResult(success=False)
-        rec = self.decide(target, shm, 0, self.episode)
+        rec = self._decide(target, shm, 0, self.episode)
         try:
             while True:
+                self._check_scene()
                 done = self._step(rec, res, limits, wall0)
                 res.message = done or res.message
                 if done:
@@ -213,31 +270,51 @@ class TargetLoop:
                     res.message = f"action budget of {limits.max_actions} spent"
                     break
                 if time.monotonic() - wall0 > limits.timeout_s:
-                    res.message = f"time budget of {limits.timeout_s:.0f} s spent"
+                    res.message = f"time budget of {limits.timeout_s:g} s spent"
                     break
                 if cancelled is not None and cancelled():
                     res.message = "cancelled"
                     break
-                rec = self.decide(target, self._fresh(rec), len(res.actions), self.episode)
+                rec = self._decide(target, self._fresh(rec), len(res.actions), self.episode)
+        except SceneReset:
+            res.message = f"{RESET_MESSAGE}: stopped after {len(res.actions)} actions"
         except LoopError as exc:
             res.message = f"stopped after {len(res.actions)} actions: {exc}"
         res.duration, res.wall_time = self.clock() - t0, time.monotonic() - wall0
         return res
 
+    def _check_scene(self) -> None:
+        """SceneReset when the scene token differs from the call's (adopting the first known one)."""
+        now = self.scene_epoch()
+        if self._epoch is None:
+            self._epoch = now
+        elif now is not None and now != self._epoch:
+            raise SceneReset(RESET_MESSAGE)
+
     def _fresh(self, rec: ActionRecord) -> StampedHeightmap:
-        """The first heightmap taken after the record's action ended (fetched once per action)."""
+        """The first heightmap taken after the record's action ended (fetched once per action); SceneReset when the
+        scene was replaced before or while waiting for it."""
         end = rec.execution.end_stamp if rec.execution else rec.decided_stamp
+        self._check_scene()
         if self._after is None or self._after.stamp <= end:
             self._after = self.source.wait_after(end, self.heightmap_timeout_s)
+            self._check_scene()
         return self._after
 
     def _step(self, rec: ActionRecord, res: LoopResult, limits: LoopLimits, wall0: float) -> str:
-        """Execute one decision and record its outcome; returns a non-empty message when the call is over."""
+        """Execute one decision and record its outcome; returns a non-empty message when the call is over. The
+        record reaches on_action also when checking its outcome raised (no heightmap, scene reset)."""
         budget = max(limits.timeout_s - (time.monotonic() - wall0), 1.0)
         ex = self.executor.execute(rec.decision, budget)
         rec.execution = ex
         res.actions.append(rec)
-        done = ""
+        try:
+            return self._outcome(rec, ex, res)
+        finally:
+            if self.on_action:
+                self.on_action(rec)
+
+    def _outcome(self, rec: ActionRecord, ex: Execution, res: LoopResult) -> str:
         if not ex.success:
             res.refused += 1
             streak = 0
@@ -245,19 +322,16 @@ class TargetLoop:
                 if r.execution is None or r.execution.success:
                     break
                 streak += 1
-            if streak >= MAX_FAILED_PRIMITIVES:
-                done = f"{streak} primitives in a row failed, last: {ex.message}"
-        elif rec.decision.primitive == "push":
+            return f"{streak} primitives in a row failed, last: {ex.message}" if streak >= MAX_FAILED_PRIMITIVES else ""
+        if rec.decision.primitive == "push":
             res.pushes += 1
-        else:
-            res.grasps += 1
-            if ex.grasped:
-                after = mask_of(self._fresh(rec).heightmap, rec.target).sum()
-                rec.target_grasped = after < max(MIN_VISIBLE_CELLS, TARGET_GONE_FRACTION * rec.target_pixels)
-            if rec.target_grasped:
-                res.success, done = True, f"target '{rec.target}' grasped"
-            else:
-                res.failed_grasps += 1
-        if self.on_action:
-            self.on_action(rec)
-        return done
+            return ""
+        res.grasps += 1
+        if ex.grasped:
+            after = mask_of(self._fresh(rec).heightmap, rec.target).sum()
+            rec.target_grasped = after < max(MIN_VISIBLE_CELLS, TARGET_GONE_FRACTION * rec.target_pixels)
+        if rec.target_grasped:
+            res.success = True
+            return f"target '{rec.target}' grasped"
+        res.failed_grasps += 1
+        return ""
