@@ -37,8 +37,9 @@ struct Transform {
 // and then equals the truncation of that quotient: the true division of the numpy reference, no floor call. A NaN
 // anywhere fails a comparison and drops the point.
 template <class PointAt>
-void locate(const ProjectorConfig& c, int rows, int cols, const Transform& tf, std::size_t count, PointAt point,
-            std::int32_t* cell, double* height) {
+__attribute__((target_clones("avx2", "default"))) void locate(const ProjectorConfig& c, int rows, int cols,
+                                                              const Transform& tf, std::size_t count, PointAt point,
+                                                              std::int32_t* cell, double* height) {
   const double x_min = c.bounds.x_min, y_min = c.bounds.y_min, z_min = c.bounds.z_min, z_max = c.bounds.z_max;
   const double res = c.resolution, n_cols = cols, n_rows = rows;
   const std::int32_t n = static_cast<std::int32_t>(count);  // begin() refused counts above 2^31 - 1

@@ -21,7 +21,7 @@
 namespace pg_policy {
 namespace {
 
-constexpr int kRuns = 50;
+constexpr int kRuns = 200;
 
 double medianMs(const std::function<void()>& fn) {
   fn();  // warm-up: buffers allocated, caches filled
