@@ -21,6 +21,9 @@ DEFAULTS = LoopLimits(30, 5, 600.0)
     ("timeout", {"timeout": math.inf}),
     ("timeout", {"timeout": -math.inf}),
     ("timeout", {"timeout": -0.5}),
+    ("timeout", {"timeout": 1e308}),
+    ("max_actions", {"max_actions": 2**31 - 1}),
+    ("max_failed_grasps", {"max_failed_grasps": 2**31 - 1}),
 ])
 def test_request_limits_refuse_bad_fields_by_name(field, kwargs):
     req = {"max_actions": 0, "max_failed_grasps": 0, "timeout": 0.0} | kwargs

@@ -145,3 +145,12 @@ def test_mesh_paths_outside_the_allowed_folders_are_refused(tmp_path):
         load_scene(path, mesh_folders=[mine])
     with pytest.raises(SceneError, match="object 0"):  # the command line reads any path (a malformed OBJ here)
         load_scene(path)
+
+
+def test_a_binary_scene_file_is_refused_naming_the_file(tmp_path):
+    from pg_sim.scenes.scene import SceneError, load_scene
+
+    bad = tmp_path / "binary.yaml"
+    bad.write_bytes(b"\x00\x01\xa4\xff" * 16)
+    with pytest.raises(SceneError, match="binary.yaml: not a UTF-8 text file"):
+        load_scene(bad)

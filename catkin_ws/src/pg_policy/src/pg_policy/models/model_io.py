@@ -34,6 +34,8 @@ class ModelLoadError(ValueError):
     """A model file that is missing, corrupt, not ours, or made for another heightmap geometry."""
 
 
+QNET_INTERFACE = ("rotate_inputs", "q_from_rotated", "num_rotations", "use_mask")  # what PolicyNets calls
+
 def geometry_metadata(geometry: Geometry) -> dict[str, Any]:
     """The heightmap part of the metadata: resolution (m), bounds (3x2 m), rows, cols, rotations."""
     return {
@@ -158,6 +160,9 @@ def load_qnet(path: str | Path, geometry: Geometry | None = None, check_geometry
         raise ModelLoadError(f"{path}: metadata format {meta['format']!r}, this version reads {FORMAT_VERSION}")
     if check_geometry:
         verify_geometry(meta, geometry or load_geometry(), str(path))
+    lacking = [a for a in QNET_INTERFACE if not hasattr(module, a)]
+    if lacking:
+        raise ModelLoadError(f"{path} is not a pushgrasp Q network: the TorchScript module lacks {', '.join(lacking)}")
     module.eval()
     return module, meta
 

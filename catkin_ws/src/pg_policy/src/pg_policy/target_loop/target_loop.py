@@ -105,16 +105,21 @@ class LoopLimits:
             raise ValueError(f"timeout must be a finite number of seconds > 0, got {self.timeout_s!r}")
 
 
+MAX_COUNT = 1000  # most actions / failed grasps one request may ask for
+MAX_TIMEOUT_S = 86400.0  # longest time budget one request may ask for (s)
+
 def request_limits(max_actions: int, max_failed_grasps: int, timeout: float, defaults: LoopLimits) -> LoopLimits:
     """The limits of one grasp_target request (pg_msgs/GraspTarget): 0 in a field means the default's value.
-    ValueError naming the field for a negative count or a NaN, infinite or negative timeout."""
+    ValueError naming the field for a count outside [0, MAX_COUNT] or a NaN, infinite, negative or too long
+    timeout (above MAX_TIMEOUT_S)."""
     for name, value in (("max_actions", max_actions), ("max_failed_grasps", max_failed_grasps)):
-        if value < 0:
-            raise ValueError(f"{name} must be >= 0 (0: the node's default {getattr(defaults, name)}), got {value}")
+        if not 0 <= value <= MAX_COUNT:
+            raise ValueError(f"{name} must be in [0, {MAX_COUNT}] (0: the node's default {getattr(defaults, name)}), "
+                             f"got {value}")
     timeout = float(timeout)
-    if not math.isfinite(timeout) or timeout < 0:
-        raise ValueError(f"timeout must be a finite number of wall-clock seconds >= 0 (0: the node's default "
-                         f"{defaults.timeout_s:g} s), got {timeout}")
+    if not math.isfinite(timeout) or not 0 <= timeout <= MAX_TIMEOUT_S:
+        raise ValueError(f"timeout must be a finite number of wall-clock seconds in [0, {MAX_TIMEOUT_S:g}] (0: the "
+                         f"node's default {defaults.timeout_s:g} s), got {timeout}")
     return LoopLimits(int(max_actions) or defaults.max_actions, int(max_failed_grasps) or defaults.max_failed_grasps,
                       timeout or defaults.timeout_s)
 

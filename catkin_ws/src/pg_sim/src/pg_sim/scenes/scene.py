@@ -315,6 +315,8 @@ def load_scene(path_or_name: str | os.PathLike[str], limits: SceneLimits = DEFAU
         text = path.read_text(encoding="utf-8")
     except OSError as e:
         raise SceneError(f"{path}: cannot read scene file: {e}") from None
+    except UnicodeDecodeError as e:
+        raise SceneError(f"{path}: not a UTF-8 text file (byte {e.start}): a scene is a YAML text file") from None
     loader = SceneLoader(text)
     try:
         node = loader.get_single_node()
