@@ -124,3 +124,13 @@ def test_policy_runs_on_one_thread_whoever_calls():
         t.join()
     assert len(ex.calls) == 4 and len(seen) == 1 and seen == {loop.worker.ident}
     assert not seen & {t.ident for t in callers} and threading.get_ident() not in seen
+
+
+def test_a_reset_count_arriving_before_the_first_primitive_means_a_fresh_decision_not_a_stop():
+    """The count of the reset that preceded the call may arrive after the call started: nothing has moved, so the
+    call decides anew and goes on."""
+    loop, _, ex, records = make([(True, False, False)], primitive="push")
+    heard = iter([0, 1])  # the call starts with the old count, the reset's count arrives before any action
+    loop.scene_epoch = lambda: next(heard, 1)
+    res = loop.run("green", LoopLimits(max_actions=3))
+    assert len(ex.calls) == 3 and "budget" in res.message and not res.message.startswith(RESET_MESSAGE)

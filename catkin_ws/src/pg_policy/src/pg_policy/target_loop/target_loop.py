@@ -183,7 +183,9 @@ class TargetLoop:
     publishes it).
     heightmap_timeout_s: wall seconds to wait for a fresh heightmap before giving up with NoHeightmap.
     scene_epoch: a token of the scene in front of the robot, None while unknown (the node: the simulator's latched
-    reset count; a real cell has none and never changes it). A call ends with RESET_MESSAGE when the token differs
+    reset count; a real cell has none and never changes it). A change before the call's first primitive makes it
+    decide anew on a fresh heightmap (the count may arrive after a call that follows a reset has started); once an
+    action has run, a call ends with RESET_MESSAGE when the token differs
     from the one it started with (or, started unknown, from the first one it saw): checked before every primitive
     and around every heightmap it waits for, i.e. between primitives.
     Callbacks (on_decision, on_action, the `cancelled` of run) are called on the worker thread.
@@ -263,7 +265,18 @@ class TargetLoop:
         rec = self._decide(target, shm, 0, self.episode)
         try:
             while True:
-                self._check_scene()
+                try:
+                    self._check_scene()
+                except SceneReset:
+                    if res.actions:
+                        raise
+                    # nothing moved yet: the reset came before the first primitive (its count may arrive after the
+                    # call started), so the call decides anew on the scene now in front of the robot
+                    self._epoch = self.scene_epoch()
+                    self.policy.reset(self.episode)
+                    rec = self._decide(target, self.source.wait_after(self.clock(), self.heightmap_timeout_s), 0,
+                                       self.episode)
+                    continue
                 done = self._step(rec, res, limits, wall0)
                 res.message = done or res.message
                 if done:
