@@ -85,13 +85,17 @@ def test_golden_replay_of_every_protocol_scene(model: str, tmp_path: Path) -> No
 
 @pytest.mark.parametrize("scene", ["packed/case01", "random-10"])
 def test_first_protocol_trial_in_the_simulator(scene: str) -> None:
+    from functools import partial
+
     from pg_policy.environment.sim_env import SimEnv
     from pg_policy.evaluation.trials import EvalPlan, run_fresh
     from pg_policy.policies.registry import make_policy
 
     want = [r for r in records() if r["scene"] == scene]
     with one_thread():
-        trial = run_fresh(SimEnv, make_policy("lite"), scene, SEED, EvalPlan(scenes=(scene,), trials=1, seed=SEED))
+        # recorded in the faithful simulation mode (every motion stepped), which must reproduce it exactly
+        env = partial(SimEnv, sim_mode="faithful")
+        trial = run_fresh(env, make_policy("lite"), scene, SEED, EvalPlan(scenes=(scene,), trials=1, seed=SEED))
     assert trial.completed
     assert len(trial.actions) == len(want)
     for a, rec in zip(trial.actions, want, strict=True):

@@ -1,4 +1,7 @@
-"""Grasp and push performed by the simulated arms: success rates, displacement, refusals (DESIGN.md section 4)."""
+"""Grasp and push performed by the simulated arms: success rates, displacement, refusals (DESIGN.md section 4).
+
+The primitives are tested in the faithful simulation mode (every motion stepped); test_sim_mode.py checks that the
+fast mode keeps their outcomes."""
 
 from dataclasses import replace
 
@@ -17,7 +20,7 @@ STEP = 2 * np.pi / 16
 
 @pytest.fixture(scope="module")
 def world():
-    w = World()
+    w = World(mode="faithful")
     yield w
     w.close()
 

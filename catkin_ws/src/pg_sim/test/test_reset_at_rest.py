@@ -23,7 +23,7 @@ AT_REST_SEED = 1000001  # random-10: everything at rest after World.settle
 
 @pytest.fixture(scope="module")
 def world():
-    with World() as w:
+    with World(mode="faithful") as w:  # the seeds above were chosen for the faithful mode's drops
         yield w
 
 

@@ -22,6 +22,7 @@ from typing import Any
 from pg_policy.evaluation.trials import DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW, DEFAULT_SEED, MIN_EVAL_SEED
 from pg_policy.policies import options
 from pg_policy.target_loop.limits import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
+from pg_sim.world.sim_mode import DEFAULT_SIM_MODE, SIM_MODES
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -55,6 +56,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ev.add_argument("--jitter-yaw", type=float, default=math.degrees(DEFAULT_JITTER_YAW),
                     help=f"fixed scenes: seeded rigid rotation of the whole scene, uniform +- deg (default "
                          f"{math.degrees(DEFAULT_JITTER_YAW)})")
+    ev.add_argument("--sim-mode", choices=list(SIM_MODES), default=DEFAULT_SIM_MODE,
+                    help=f"simulation mode (default {DEFAULT_SIM_MODE}): fast teleports the arms through free space "
+                         "and gives the table its own static body; faithful steps every motion (docs/RESULTS.md "
+                         "compares them on the protocol)")
     options.add_arguments(ev)  # the declared policy options: --grasp-threshold, --rules, --grasp-check, ...
     ev.add_argument("--device", default="cpu", help="torch device of learned policies (default cpu)")
     ev.add_argument("--workers", type=int, default=None,
@@ -113,10 +118,12 @@ def _worker_init(policy: str, opts: Any, threads: int, blobs: tuple[tuple[str, b
 
 
 def _worker_trial(index: int, name: str, seed: int, plan: Any) -> tuple[int, Any]:
+    from functools import partial
+
     from pg_policy.environment.sim_env import SimEnv
     from pg_policy.evaluation.trials import run_fresh
 
-    return index, run_fresh(SimEnv, _WORKER["policy"], name, seed, plan)
+    return index, run_fresh(partial(SimEnv, sim_mode=plan.sim_mode), _WORKER["policy"], name, seed, plan)
 
 
 def run_trials(policy: str, opts: Any, plan: Any, jobs: list[tuple[str, int]], workers: int,
@@ -126,6 +133,8 @@ def run_trials(policy: str, opts: Any, plan: Any, jobs: list[tuple[str, int]], w
     `on_trial(record)` is called as each finishes. Every trial runs in a fresh SimEnv, so the records do not depend
     on `workers`. A trial that raises, or whose worker dies twice, is an error record; the others are kept."""
     if workers == 1 and address is None:
+        from functools import partial
+
         from pg_policy.environment.sim_env import SimEnv
         from pg_policy.evaluation.trials import run_fresh
         from pg_policy.policies.registry import make_policy
@@ -133,7 +142,7 @@ def run_trials(policy: str, opts: Any, plan: Any, jobs: list[tuple[str, int]], w
         local = make_policy(policy, opts)
         out = []
         for name, seed in jobs:
-            out.append(run_fresh(SimEnv, local, name, seed, plan))
+            out.append(run_fresh(partial(SimEnv, sim_mode=plan.sim_mode), local, name, seed, plan))
             if on_trial is not None:
                 on_trial(out[-1])
         return out
@@ -184,13 +193,14 @@ def _run(args: argparse.Namespace) -> int:
     rules = rules if isinstance(rules, RulePipeline) else None
     del policy
     plan = EvalPlan(tuple(scenes), args.trials, args.seed, Limits(args.max_actions, args.max_failed_grasps),
-                    args.jitter_xy, math.radians(args.jitter_yaw))
+                    args.jitter_xy, math.radians(args.jitter_yaw), args.sim_mode)
     config = {
         "policy": policy_name, "policy_arg": args.policy, "models": [str(p) for p in opts.models],
         "scenes": scenes, "trials": args.trials,
         "seed": args.seed, "trial_seeds": f"seed + i for trial i = 0..{args.trials - 1}",
         "max_actions": args.max_actions, "max_failed_grasps": args.max_failed_grasps,
-        "jitter_xy_m": args.jitter_xy, "jitter_yaw_deg": args.jitter_yaw, "options": dict(opts.overrides),
+        "jitter_xy_m": args.jitter_xy, "jitter_yaw_deg": args.jitter_yaw, "sim_mode": args.sim_mode,
+        "options": dict(opts.overrides),
         "rules": None if rules is None else rules.specs(),
         "geometry_config": str(geometry.path), "primitives": asdict(geometry.primitives),
         "model_sha256": file_digests([str(p) for p in opts.models]),

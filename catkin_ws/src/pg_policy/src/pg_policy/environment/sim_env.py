@@ -18,6 +18,7 @@ from pg_sim.scenes.colors import nearest_color_name
 from pg_sim.scenes.scene import SceneSpec, find_scene, load_scene
 from pg_sim.world.primitives import PrimitiveExecutor, PrimitiveRefused
 from pg_sim.world.scene_families import generate_scene, parse_generated
+from pg_sim.world.sim_mode import DEFAULT_SIM_MODE
 from pg_sim.world.world import World
 
 
@@ -45,11 +46,12 @@ class StepResult:
 
 
 class SimEnv:
-    """One simulated cell. Not thread-safe; use one per process. Call close() or use `with`."""
+    """One simulated cell. Not thread-safe; use one per process. Call close() or use `with`. `sim_mode`: ``fast``
+    (default) or ``faithful`` (pg_sim.world.sim_mode); raises ValueError for another."""
 
-    def __init__(self, geometry: Geometry | None = None, gui: bool = False) -> None:
+    def __init__(self, geometry: Geometry | None = None, gui: bool = False, sim_mode: str = DEFAULT_SIM_MODE) -> None:
         self.geometry = geometry or load()
-        self.world = World(self.geometry, gui=gui)
+        self.world = World(self.geometry, gui=gui, mode=sim_mode)
         self.executor = PrimitiveExecutor(self.world, remove_grasped=True)
         self.target = "green"
 

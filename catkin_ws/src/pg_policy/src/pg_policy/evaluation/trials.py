@@ -52,6 +52,7 @@ from pg_policy.evaluation.errors import ERROR, mark_error
 from pg_policy.target_loop.limits import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
 from pg_sim.scenes.scene import find_scene, list_scenes, load_scene
 from pg_sim.world.scene_source import GENERATED
+from pg_sim.world.sim_mode import DEFAULT_SIM_MODE
 
 MIN_EVAL_SEED = 1_000_000
 DEFAULT_SEED = MIN_EVAL_SEED
@@ -304,7 +305,8 @@ def trial_scene(name: str, seed: int, jitter_xy: float, jitter_yaw: float) -> An
 
 @dataclass(frozen=True)
 class EvalPlan:
-    """The trials to run: scenes x trials, seeds seed + i, limits, pose jitter of fixed scenes."""
+    """The trials to run: scenes x trials, seeds seed + i, limits, pose jitter of fixed scenes, and the simulation
+    mode of their environments (pg_sim.world.sim_mode: fast or faithful)."""
 
     scenes: tuple[str, ...]
     trials: int
@@ -312,6 +314,7 @@ class EvalPlan:
     limits: Limits = field(default_factory=Limits)
     jitter_xy: float = DEFAULT_JITTER_XY
     jitter_yaw: float = DEFAULT_JITTER_YAW
+    sim_mode: str = DEFAULT_SIM_MODE
 
     def jobs(self) -> list[tuple[str, int]]:
         """(scene, seed) of every trial, scene-major."""

@@ -43,8 +43,29 @@ class ArmDriver:
         states = p.getJointStates(self.body_, self.arm.fingers, physicsClientId=self.client_)
         return float(states[0][0] + states[1][0])
 
+    def finger_positions(self) -> tuple[float, float]:
+        """The two finger joint positions (m)."""
+        states = p.getJointStates(self.body_, self.arm.fingers, physicsClientId=self.client_)
+        return float(states[0][0]), float(states[1][0])
+
+    @property
+    def velocity_limit(self) -> float:
+        """Joint speed limit (rad/s) of the motions (follow uses 0.9 of it)."""
+        return float(self.vmax_)
+
+    def place(self, q: Sequence[float], opening: float | None, fingers: Sequence[float] | None = None) -> None:
+        """Set the joints to `q` (rad) and the fingers to `opening` (m), or to their two positions `fingers`,
+        with zero velocity; commands nothing and steps no physics (collision checks of a kinematic transit)."""
+        for j, v in zip(self.arm.joints, q, strict=True):
+            p.resetJointState(self.body_, j, float(v), physicsClientId=self.client_)
+        if opening is not None:
+            fingers = (opening / 2, opening / 2)
+        for j, v in zip(self.arm.fingers, fingers or (), strict=False):
+            p.resetJointState(self.body_, j, float(v), physicsClientId=self.client_)
+
     def reset(self, q: Sequence[float], opening: float) -> None:
-        """Teleport joints and fingers (scene setup only, never during a primitive) and hold them there."""
+        """Teleport joints and fingers and hold them there: scene setup, and the kinematic free-space moves of the
+        fast simulation mode (pg_sim.world.transit), never where the arm could touch an object."""
         for j, v in zip(self.arm.joints, q, strict=True):
             p.resetJointState(self.body_, j, float(v), physicsClientId=self.client_)
         for j in self.arm.fingers:

@@ -15,6 +15,7 @@ import numpy as np
 import pybullet as p
 
 from pg_sim.robot.arm_driver import ArmDriver, MotionTimeout
+from pg_sim.world.transit import arm_links, path_duration, transit
 from pg_sim.world.world import World
 
 # Contact solver iterations while the jaw closes and lifts in a grasp below primitives.grasp_min_z, where only the
@@ -23,6 +24,9 @@ from pg_sim.world.world import World
 # and slide over it (held-out thin, rod and small objects grasped at their centre: 15 of 40 lifted with 50, 39 with
 # 300). Grasps at grasp_min_z and above (blocks, household objects) keep the world's setting.
 SQUEEZE_SOLVER_ITERATIONS = 300
+# Longest opening of the fingers at home (s, ArmDriver.gripper's max_time): the objects' settling time after a
+# kinematic return home covers it too.
+GRIPPER_OPEN_TIME = 0.8
 
 
 class PrimitiveRefused(ValueError):
@@ -50,13 +54,15 @@ class _Plan:
 
 
 class PrimitiveExecutor:
-    """Plans with IK (choosing the closest arm that reaches every waypoint) and executes under physics."""
+    """Plans with IK (choosing the closest arm that reaches every waypoint) and executes under physics. In the
+    world's fast mode (pg_sim.world.sim_mode) the free-space joint moves are kinematic when clear of objects."""
 
     def __init__(self, world: World, remove_grasped: bool = True) -> None:
         self.world_ = world
         self.geo_ = world.geometry
         self.prims_ = world.geometry.primitives
         self.remove_grasped_ = remove_grasped
+        self.links_: dict[str, tuple[int, ...]] = {}  # arm -> its links (collision checks of kinematic transit)
 
     # -- public ------------------------------------------------------------------------------------------------
     def grasp(self, x: float, y: float, z: float, yaw: float, arm: str = "") -> PrimitiveResult:
@@ -145,8 +151,9 @@ class PrimitiveExecutor:
         grasped, held, message = False, None, "ok"
         lifted: list[int] = []  # body ids in the closed jaw after the lift (grasp only)
         try:
-            driver.command_gripper(g.max_opening if primitive == "grasp" else 0.0)
-            driver.follow(plan.approach)
+            opening = g.max_opening if primitive == "grasp" else 0.0
+            driver.command_gripper(opening)
+            self._free_move(driver, plan.arm, plan.approach, opening)
             guard = self._descent_guard(driver) if primitive == "grasp" else None
             reached = driver.follow(plan.cartesian[0], [length / speed for length in plan.lengths[0]], stop=guard)
             if primitive == "grasp":
@@ -230,11 +237,26 @@ class PrimitiveExecutor:
             return self.world_.target_id
         return lifted[0] if lifted else None
 
+    def _free_move(self, driver: ArmDriver, arm: str, path: list[np.ndarray], opening: float,
+                   settle_extra: float = 0.0) -> bool:
+        """A joint-space move through free space with the fingers going to `opening` (m): kinematic in the fast
+        mode when clear of every object (pg_sim.world.transit; then physics until the objects rest, at most the
+        move's duration + `settle_extra` s), else simulated. True when it was kinematic."""
+        mode = self.world_.mode
+        if mode.kinematic_transit:
+            links = self.links_.setdefault(arm, arm_links(self.world_, arm))
+            settle = path_duration(path, driver.velocity_limit, self.world_.time_step) + settle_extra
+            if transit(self.world_, driver, path, links, mode, opening, settle):
+                return True
+        driver.follow(path)
+        return False
+
     def _go_home(self, driver: ArmDriver, arm: str) -> None:
         home = np.array(self.geo_.robot.arms[arm].home)
         driver.set_deadline(self.world_.sim_time + self.prims_.time_budget)
         try:
-            driver.follow([driver.joints(), home])
-            driver.gripper(self.geo_.gripper.max_opening)
+            opening = self.geo_.gripper.max_opening
+            if not self._free_move(driver, arm, [driver.joints(), home], opening, settle_extra=GRIPPER_OPEN_TIME):
+                driver.gripper(opening)
         except MotionTimeout:
             driver.reset(home, self.geo_.gripper.max_opening)  # recovery after a stuck arm (sim only)

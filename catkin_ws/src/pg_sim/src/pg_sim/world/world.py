@@ -19,6 +19,8 @@ from pg_sim.robot.robot_model import load_robot
 from pg_sim.scenes.objects import object_pose, spawn_object
 from pg_sim.scenes.scene import ObjectSpec, SceneSpec
 from pg_sim.world.camera import Frame, SimCamera
+from pg_sim.world.sim_mode import DEFAULT_SIM_MODE, SimMode, get_sim_mode
+from pg_sim.world.static_table import detach_table
 
 
 @dataclass(frozen=True)
@@ -29,10 +31,12 @@ class Observation:
 
 
 class World:
-    """A simulated cell. Use as a context manager or call close(); `gui=True` opens the PyBullet window."""
+    """A simulated cell. Use as a context manager or call close(); `gui=True` opens the PyBullet window. `mode`:
+    a simulation mode of pg_sim.world.sim_mode (``fast`` or ``faithful``); raises ValueError for another."""
 
     def __init__(self, geometry: Geometry | None = None, gui: bool = False, time_step: float = 1 / 240,
-                 solver_iterations: int = 50) -> None:
+                 solver_iterations: int = 50, mode: str | SimMode = DEFAULT_SIM_MODE) -> None:
+        self.mode = get_sim_mode(mode)
         self.geometry = geometry or load()
         self.client = p.connect(p.GUI if gui else p.DIRECT)
         p.setGravity(0, 0, -9.81, physicsClientId=self.client)
@@ -41,6 +45,7 @@ class World:
         self.time_step = time_step
         self.sim_time = 0.0
         self.robot = load_robot(self.client, self.geometry)
+        self.table_body = detach_table(self.client, self.robot.body) if self.mode.static_table else None
         self.ik = IkSolver(self.geometry)
         self.arms = {
             name: ArmDriver(self.client, self.robot.body, idx, self.geometry, self.step)
