@@ -172,7 +172,20 @@ def test_cli_errors(tmp_path, capsys):
     assert main(["eval", "--policy", "heuristic", "--scenes", "packed/case01", "--trials", "1", "--seed", "3",
                  "--out", str(tmp_path)]) == 2
     assert "--allow-train-seeds" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["eval", "--policy", "heuristic", "--scenes", "packed/case01", "--trials", "1", "--sim-mode", "quick",
+              "--out", str(tmp_path)])
+    assert "invalid choice: 'quick'" in capsys.readouterr().err
     assert not (tmp_path / "results.json").exists()
+
+
+def test_the_faithful_mode_reaches_the_trials_environment(tmp_path):
+    out = tmp_path / "ev"
+    assert main(["eval", "--policy", "heuristic", "--scenes", "packed/case01", "--trials", "1", "--out", str(out),
+                 "--sim-mode", "faithful", "--max-actions", "1", "--no-progress"]) == 0
+    doc = json.loads((out / "results.json").read_text())
+    assert doc["config"]["sim_mode"] == "faithful"
+    assert doc["trials"][0]["sim_s"] > 3.0  # every motion stepped (fast: the free-space moves are teleports)
 
 
 def test_cli_heuristic_on_packed_case01(tmp_path, capsys):
@@ -182,6 +195,7 @@ def test_cli_heuristic_on_packed_case01(tmp_path, capsys):
     assert {p.name for p in out.iterdir()} == {"results.json", "results.md", "results.png", "trials.jsonl"}
     doc = json.loads((out / "results.json").read_text())
     assert doc["config"]["policy"] == "heuristic" and doc["config"]["seed"] == 1_000_000
+    assert doc["config"]["sim_mode"] == "fast"
     assert [t["seed"] for t in doc["trials"]] == [1_000_000, 1_000_001]
     for t in doc["trials"]:
         assert t["scene"] == "packed/case01" and t["n_actions"] == len(t["actions"]) >= 1

@@ -59,11 +59,17 @@ def _run(args: argparse.Namespace) -> int:
         print(f"wrote {len(cases)} heightmaps to {args.save_cases}")
         return 0
     if args.policy != "none":
-        from pg_policy.evaluation.policy_bench import DEFAULT_SCENES, bench_policy
+        from pg_policy.evaluation.policy_bench import DEFAULT_SCENES, bench_policy, same_decisions
 
-        pb = bench_policy(args.policy, args.policy_scenes or DEFAULT_SCENES, runs=args.policy_runs,
-                          threads=args.threads, verbose=not args.quiet)
+        scenes = args.policy_scenes or DEFAULT_SCENES
+        pb = bench_policy(args.policy, scenes, runs=args.policy_runs, threads=args.threads, verbose=not args.quiet)
         print(pb.report() + "\n")
+        if "nets" in pb.stages_s:  # a learned policy: the same decisions from the full Q maps, for comparison
+            full = bench_policy(args.policy, scenes, runs=args.policy_runs, threads=args.threads,
+                                verbose=not args.quiet, overrides={"q_window": False})
+            print(full.report())
+            print(f"\nq_window on / off: {pb.median_ms():.1f} / {full.median_ms():.1f} ms; same decisions: "
+                  f"{'yes' if same_decisions(pb, full) else 'NO'}\n")
     if not args.variants:
         return 0
     result = run(args.variants, runs=args.runs, threads=args.threads, scenes=args.scenes,

@@ -51,7 +51,8 @@ def draw(out: Path, obs, decision, q: dict[str, np.ndarray], title: str, grasp_f
         if maps is None:
             ax.imshow(hm.color, origin="lower")
         else:
-            im = ax.imshow(maps.max(axis=0), origin="lower", cmap="jet")
+            ax.imshow(hm.color, origin="lower", alpha=0.35)  # under the cells without Q (q_window: -inf)
+            im = ax.imshow(np.ma.masked_invalid(maps.max(axis=0)), origin="lower", cmap="jet")
             fig.colorbar(im, ax=ax, fraction=0.046)
         if mask.any():
             ax.contour(mask.astype(float), levels=[0.5], colors="white", linewidths=1.5)

@@ -6,7 +6,8 @@ regions), nets (both Q maps, all rotations), each rule of the model's pipeline (
 tests) and the re-rank walk, decide (threshold and masked argmax). The observations are the first views of the given
 shipped scenes, rendered by the simulator; the policy is reset before every call, so each call is a trial's first
 decision. Calls cycle through the scenes; the medians are over all calls. Every call on an observation must give
-the decision of the first call on it (`decisions_stable`).
+the decision of the first call on it (`decisions_stable`). `overrides` sets policy options (e.g. q_window off: the
+full Q maps), so that two runs can be compared decision by decision (`same_decisions`).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ DEFAULT_SCENES = ("packed/case01", "packed/case05", "packed/case09", "household/
 class PolicyBench:
     """Figures of one policy: total and per-stage seconds per call (lists over calls), load and versions."""
 
-    policy: str
+    policy: str  # with the options set, e.g. "lite (q_window=False)"
     threads: int
     scenes: list[str]
     total_s: list[float] = field(default_factory=list)
@@ -74,10 +75,17 @@ def _key(d: Any) -> str:
     return f"{d.primitive} r{d.rotation} ({d.row}, {d.col})"
 
 
+def same_decisions(a: PolicyBench, b: PolicyBench) -> bool:
+    """Whether two runs decided alike on every scene they share (primitive, rotation and cell)."""
+    shared = set(a.decisions) & set(b.decisions)
+    return bool(shared) and all(a.decisions[s] == b.decisions[s] for s in shared)
+
+
 def bench_policy(policy: str = "lite", scenes: Sequence[str] = DEFAULT_SCENES, runs: int = 10, threads: int = 2,
-                 verbose: bool = True) -> PolicyBench:
-    """Time `runs` rounds of act() over the first observations of `scenes` (module docstring). Raises ValueError
-    for an unknown policy or scene, runs < 1 or threads < 1."""
+                 verbose: bool = True, overrides: dict[str, Any] | None = None) -> PolicyBench:
+    """Time `runs` rounds of act() over the first observations of `scenes` (module docstring), the policy made
+    with the option values `overrides`. Raises ValueError for an unknown policy, scene or option, runs < 1 or
+    threads < 1."""
     import torch
 
     from pg_policy.policies.policy import PolicyOptions
@@ -86,9 +94,10 @@ def bench_policy(policy: str = "lite", scenes: Sequence[str] = DEFAULT_SCENES, r
     if runs < 1 or threads < 1:
         raise ValueError(f"runs and threads must be >= 1, got {runs} and {threads}")
     torch.set_num_threads(threads)
-    pol = make_policy(policy, PolicyOptions())
+    pol = make_policy(policy, PolicyOptions(overrides=dict(overrides or {})))
     obs = _observations(scenes)
-    result = PolicyBench(policy, threads, list(scenes), torch_version=torch.__version__,
+    label = policy + (f" ({', '.join(f'{k}={v}' for k, v in overrides.items())})" if overrides else "")
+    result = PolicyBench(label, threads, list(scenes), torch_version=torch.__version__,
                          load_before=os.getloadavg()[0])
     for _ in range(2):  # warm-up: allocator, oneDNN primitives, lazy imports
         for _, o in obs:
@@ -105,7 +114,7 @@ def bench_policy(policy: str = "lite", scenes: Sequence[str] = DEFAULT_SCENES, r
             key = _key(d)
             result.decisions_stable &= result.decisions.setdefault(scene, key) == key
         if verbose:
-            print(f"[bench] policy {policy}: round {i + 1}/{runs}, median so far {result.median_ms():.1f} ms",
+            print(f"[bench] policy {label}: round {i + 1}/{runs}, median so far {result.median_ms():.1f} ms",
                   flush=True)
     result.load_after = os.getloadavg()[0]
     return result

@@ -19,6 +19,7 @@ from torch import Tensor, nn
 
 from pg_core.heightmap import Heightmap
 from pg_policy.models.model_io import ModelLoadError, load_qnet
+from pg_policy.models.nets.lite_window import LiteWindowQ, supports_windows
 from pg_policy.models.nets.qnet import QNetConfig, build_qnet
 
 ROLES = ("grasp", "push")
@@ -85,6 +86,8 @@ class PolicyNets:
                  device: str | torch.device = "cpu", optimize: bool = False) -> None:
         self.device = torch.device(device)
         nets = {"grasp": grasp.to(self.device).eval(), "push": push.to(self.device).eval()}
+        # exact windowed evaluators of lite nets (before freezing: they read the weights), see q_maps
+        self.windowed: dict[str, LiteWindowQ] = {k: LiteWindowQ(v) for k, v in nets.items() if supports_windows(v)}
         self.nets: dict[str, nn.Module] = {k: optimize_for_cpu(v) if optimize else v for k, v in nets.items()}
         if optimize:
             keep_freed_memory()
@@ -127,10 +130,12 @@ class PolicyNets:
         """{role: Q (R, H, W) float32} for each role in `nets`, R = len(rotations) (default all, in index order).
 
         mask: (H, W) bool/{0, 1} goal mask (an input of "mask" nets only). window (row0, row1, col0, col1): compute
-        only those cells, from crops of the rotated canvases holding the window plus `margin` px of context
-        (default `exact_margin()`, which makes them equal to the full maps; required when that is -1); the maps are
-        then (R, row1 - row0, col1 - col0) with [0, 0] at (row0, col0). The rotated inputs are computed once and
-        shared by nets with the same goal variant. Raises ValueError for unknown roles, shapes or windows.
+        only those cells; the maps are then (R, row1 - row0, col1 - col0) with [0, 0] at (row0, col0). Without
+        `margin`, lite nets compute every layer only where the window needs it (`LiteWindowQ`: equal to the full
+        maps, at a cost that follows the window's area); other nets, or an explicit `margin`, crop the rotated
+        canvases to the window plus `margin` px of context (default `exact_margin()`, which makes them equal to the
+        full maps; required when that is -1). The rotated inputs are computed once and shared by nets with the same
+        goal variant. Raises ValueError for unknown roles, shapes or windows.
         """
         unknown = [n for n in nets if n not in self.nets]
         if unknown:
@@ -142,9 +147,14 @@ class PolicyNets:
             window = [int(v) for v in window]
             if len(window) != 4 or not (0 <= window[0] < window[1] <= h and 0 <= window[2] < window[3] <= w):
                 raise ValueError(f"window {window} is not (row0, row1, col0, col1) inside the {h} x {w} heightmap")
+            exact_layers = margin is None and all(role in self.windowed for role in nets)
             margin = self.exact_margin() if margin is None else int(margin)
             if margin < 0:
                 raise ValueError("these nets have no exact window margin: give `margin` (px) explicitly")
+            if exact_layers:
+                with torch.inference_mode():
+                    return {role: self.windowed[role].q(c, d, m, rots, tuple(window)).float().cpu().numpy()
+                            for role in nets}
         out: dict[str, np.ndarray] = {}
         shared: dict[bool, tuple[Tensor, ...]] = {}
         # optimized_execution(False): TorchScript's profiling executor would re-specialise (seconds for DenseNet) on

@@ -2,7 +2,9 @@
 
 Per decision (the paper's loop at test time):
 1. perceive: the target mask (goal-agnostic: every object cell while the target is not visible) and the regions;
-2. Q maps: both nets over the 16 rotations (pg_policy.models.inference);
+2. Q maps: both nets over the 16 rotations (pg_policy.models.inference), by default only on the cells around the
+   grasp and the push region that the rules and the decision read (option q_window; exact: the full maps' values
+   there, every other cell -inf);
 3. rules: the model's rule pipeline adjusts the maps (pg_policy.decision.rules; first told what the last action did);
 4. decide: grasp if the masked max Q_g exceeds the threshold, else push (pg_policy.decision.decision.decide); a push
    budget B > 0 grasps after B pushes in a row whatever Q_g says (as the paper's push stage does in training), and a
@@ -17,12 +19,19 @@ import math
 import time
 from typing import Any
 
+import numpy as np
+
 from pg_policy.decision.decision import Decision, decide, grasp_region, push_region
 from pg_policy.decision.rules.registry import make_pipeline, model_rules
 from pg_policy.decision.rules.rule import RuleContext
+from pg_policy.models.inference import target_window
 from pg_policy.policies.model_files import load_nets, metadata_thresholds, resolve_models, threshold_from_metadata
 from pg_policy.policies.options import resolved_rules
 from pg_policy.policies.policy import PolicyBase, PolicyOptions, goal_or_all
+
+# Cells of Q beyond a region that the rules read: the grasp filter's k x k squares reach (k - 1) / 2 (exact up to
+# 9 x 9; the shipped min3 reads 1).
+WINDOW_MARGIN_CELLS = 4
 
 
 class LearnedPolicy(PolicyBase):
@@ -44,10 +53,27 @@ class LearnedPolicy(PolicyBase):
             raise ValueError(f"push budget must be >= 0 (0 = none), got {budget}")
         self.push_budget = int(budget)
         self.rules = make_pipeline(resolved_rules(model_rules(meta), opts.overrides), self.geometry)
+        self.q_window = opts.get("q_window") is not False  # unset: on
         self.pushes_in_row = 0
         self.last: Decision | None = None
         self.last_note = ""
         self.last_timings: dict[str, float] = {}  # seconds per stage of the last act(): perceive, nets, rule:*, decide
+
+    def _q_maps(self, hm: Any, target: np.ndarray, ctx: RuleContext) -> dict[str, np.ndarray]:
+        """{"grasp", "push"}: (R, H, W) float32 maps, full or (q_window) exact on each region's bounding box grown by
+        WINDOW_MARGIN_CELLS and -inf elsewhere (an empty region: all -inf)."""
+        if not self.q_window:
+            return self.nets.q_maps(hm, target)
+        shape = (self.nets.num_rotations, *target.shape)
+        out = {}
+        for role, region in (("grasp", ctx.grasp_region), ("push", ctx.push_region)):
+            full = np.full(shape, -np.inf, dtype=np.float32)
+            win = target_window(region, WINDOW_MARGIN_CELLS)
+            if win is not None:
+                r0, r1, c0, c1 = win
+                full[:, r0:r1, c0:c1] = self.nets.q_maps(hm, target, nets=(role,), window=win)[role]
+            out[role] = full
+        return out
 
     def reset(self, seed: int | None = None) -> None:
         super().reset(seed)
@@ -62,7 +88,7 @@ class LearnedPolicy(PolicyBase):
         ctx = RuleContext(hm, target, visible, grasp_region(target, hm.resolution), push_region(target, hm.resolution))
         self.rules.observe(self.last, ctx)
         t1 = time.perf_counter()
-        q = self.nets.q_maps(hm, target)
+        q = self._q_maps(hm, target, ctx)
         t2 = time.perf_counter()
         outcome = self.rules.apply(q, ctx)
         t3 = time.perf_counter()

@@ -54,11 +54,13 @@ def overlay(hm: Heightmap, target: np.ndarray, rec: Any, q: dict[str, np.ndarray
     the colour heightmap; target outline in white, the action as an arrow (push) or a finger line (grasp)."""
     d = rec.decision
     maps = q.get(d.primitive)
-    if maps is not None:
-        qmax = np.asarray(maps).max(axis=0)
-        lo, hi = float(qmax.min()), float(qmax.max())
-        norm = ((qmax - lo) / (hi - lo) * 255 if hi > lo else np.zeros_like(qmax)).astype(np.uint8)
-        img = cv2.cvtColor(cv2.applyColorMap(norm, cv2.COLORMAP_JET), cv2.COLOR_BGR2RGB)
+    qmax = np.asarray(maps).max(axis=0) if maps is not None else None
+    known = np.isfinite(qmax) if qmax is not None else None
+    if qmax is not None and known.any():  # cells without Q (-inf outside the q_window regions): dimmed heightmap
+        lo, hi = float(qmax[known].min()), float(qmax[known].max())
+        scaled = np.where(known, qmax - lo, 0.0) / (hi - lo) * 255 if hi > lo else np.zeros_like(qmax)
+        img = cv2.cvtColor(cv2.applyColorMap(scaled.astype(np.uint8), cv2.COLORMAP_JET), cv2.COLOR_BGR2RGB)
+        img[~known] = hm.color[~known] // 3
     else:
         img = hm.color.copy()
     contours, _ = cv2.findContours(target.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from pg_sim.world.sim_mode import SIM_MODES
+
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     scene = sub.add_parser("scene", help="list, render and import scenes")
@@ -41,6 +43,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     bench.add_argument("--primitives", type=int, default=20, help="primitives to time (default 20)")
     bench.add_argument("--observations", type=int, default=20, help="observations to time (default 20)")
     bench.add_argument("--seed", type=int, default=0, help="scene and action seed (default 0)")
+    bench.add_argument("--sim-mode", nargs="+", choices=list(SIM_MODES), default=list(SIM_MODES),
+                       help="simulation modes to time, each from the same seed (default: all, with the ratio to the "
+                            "first)")
     bench.set_defaults(run=_bench)
 
 
@@ -92,7 +97,18 @@ def _render(args: argparse.Namespace) -> int:
 def _bench(args: argparse.Namespace) -> int:
     from pg_sim.world.bench import run
 
-    print(run(args.objects, args.primitives, args.observations, args.seed).report())
+    for name in ("objects", "primitives", "observations"):
+        if getattr(args, name) < 1:
+            raise ValueError(f"--{name} must be >= 1, got {getattr(args, name)}")
+    results = []
+    for mode in args.sim_mode:
+        results.append(run(args.objects, args.primitives, args.observations, args.seed, mode))
+        print(results[-1].report(), flush=True)
+    first = results[0]
+    for other in results[1:]:
+        print(f"primitive median: {first.mode} {first.median_primitive_s:.3f} s, {other.mode} "
+              f"{other.median_primitive_s:.3f} s ({other.mode} / {first.mode} = "
+              f"{other.median_primitive_s / first.median_primitive_s:.2f})")
     return 0
 
 

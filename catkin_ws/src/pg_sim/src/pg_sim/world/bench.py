@@ -6,6 +6,7 @@ contact the way policy actions do; refused requests are skipped and counted.
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass
 
@@ -15,21 +16,29 @@ from pg_core import heightmap as hm
 from pg_core.action_geometry import grasp_z, push_z
 from pg_sim.world.primitives import PrimitiveExecutor, PrimitiveRefused
 from pg_sim.world.random_scene import drop_scene, sample_drops
+from pg_sim.world.sim_mode import DEFAULT_SIM_MODE
 from pg_sim.world.world import World
 
 
 @dataclass(frozen=True)
 class SimBench:
+    mode: str  # simulation mode (pg_sim.world.sim_mode)
     objects: int
     primitive_s: list[float]
     observe_s: list[float]
     refused: int
     sim_s_per_primitive: float
 
+    @property
+    def median_primitive_s(self) -> float:
+        return float(np.median(self.primitive_s))
+
     def report(self) -> str:
         prim, obs = np.array(self.primitive_s), np.array(self.observe_s)
+        load = os.getloadavg()[0]
         return "\n".join([
-            f"scene: {self.objects} random objects; primitives timed: {len(prim)} (refused: {self.refused})",
+            f"[{self.mode}] scene: {self.objects} random objects; primitives timed: {len(prim)} (refused: "
+            f"{self.refused}); load {load:.2f} on {os.cpu_count()} CPUs",
             f"primitive wall time  median {np.median(prim):.3f} s  (p10 {np.percentile(prim, 10):.3f}, "
             f"p90 {np.percentile(prim, 90):.3f}); simulated {self.sim_s_per_primitive:.2f} s each "
             f"-> {self.sim_s_per_primitive / np.median(prim):.1f}x real time",
@@ -38,10 +47,13 @@ class SimBench:
         ])
 
 
-def run(objects: int = 20, primitives: int = 20, observations: int = 20, seed: int = 0) -> SimBench:
+def run(objects: int = 20, primitives: int = 20, observations: int = 20, seed: int = 0,
+        mode: str = DEFAULT_SIM_MODE) -> SimBench:
+    """Time `primitives` primitives and `observations` observations in `mode`; the scenes and the actions' targets
+    come from `seed` (each mode starts from the same scene; the scenes then evolve with the mode's physics)."""
     rng = np.random.default_rng(seed)
     prim_s, obs_s, sim_s, refused = [], [], [], 0
-    with World() as world:
+    with World(mode=mode) as world:
         ex = PrimitiveExecutor(world, remove_grasped=True)
         drop_scene(world, sample_drops(objects, seed))
         for _ in range(observations):
@@ -69,4 +81,4 @@ def run(objects: int = 20, primitives: int = 20, observations: int = 20, seed: i
                 continue
             prim_s.append(time.perf_counter() - t)
             sim_s.append(world.sim_time - t_sim)
-    return SimBench(objects, prim_s, obs_s, refused, float(np.mean(sim_s)))
+    return SimBench(world.mode.name, objects, prim_s, obs_s, refused, float(np.mean(sim_s)))
