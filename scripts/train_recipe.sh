@@ -14,6 +14,7 @@
 #   PG_TRAIN_THREADS  torch CPU threads (2)
 #   PG_TRAIN_SCALE    multiplies every stage's iterations (1.0), e.g. 0.5 for a quicker, weaker model
 #   PG_TRAIN_BACKBONE backbone of the four stages (lite); lite-os8 to start from the shipped model (PG_TRAIN_INIT)
+#   PG_TRAIN_SIM_MODE simulation mode of the episodes: fast or faithful (fast; docs/ARCHITECTURE.md)
 #   PG_TRAIN_OBJECTS  blocks: the block scenes of the shipped model (blocks); mixed: every stage also takes scenes
 #                     of the catalogue's training objects (train-mixed-N, train-novel-N, train-novel-packed-N, in
 #                     turn with the block scenes, one per episode); held-out objects are never trained on
@@ -28,6 +29,7 @@ threads="${PG_TRAIN_THREADS:-2}"
 scale="${PG_TRAIN_SCALE:-1.0}"
 objects="${PG_TRAIN_OBJECTS:-blocks}"
 backbone="${PG_TRAIN_BACKBONE:-lite}"
+sim_mode="${PG_TRAIN_SIM_MODE:-fast}"
 py="$repo/.venv/bin/python"
 
 # stage | scenes | iterations | lr | seed | extra flags (training seeds < 1,000,000; evaluation uses >= 1,000,000).
@@ -62,7 +64,8 @@ for row in "${STAGES[@]}"; do
   fi
   echo "[recipe] $stage: $iters iterations on $scene, lr $lr, seed $seed"
   "$py" -m pg_policy.cli.main train --stage "$stage" --out "$out" --scene "$scene" --iterations "$iters" --lr "$lr" \
-    --backbone "$backbone" --seed "$seed" --threads "$threads" --minutes "$minutes" "${stage_flags[@]}" "${extra[@]}"
+    --backbone "$backbone" --seed "$seed" --threads "$threads" --minutes "$minutes" --sim-mode "$sim_mode" \
+    "${stage_flags[@]}" "${extra[@]}"
   done_its=$("$py" -c "import torch; print(torch.load('$out/$stage/last.pt', weights_only=False)['iteration'])")
   if [ "$done_its" -lt "$iters" ]; then
     echo "[recipe] $stage stopped at $done_its/$iters iterations (time cap): rerun to continue"
@@ -75,6 +78,7 @@ os8_iters=$("$py" -c "print(max(1, round(800 * $scale)))")
 echo "[recipe] alternate at output stride 8: $os8_iters iterations on $dense"
 "$py" -m pg_policy.cli.main train --stage alternate --backbone lite-os8 --init "$out/os16_model" --out "$out/os8" \
   --scene "$dense" --iterations "$os8_iters" --lr 1e-4 --seed 8 --threads "$threads" --minutes "$minutes" \
+  --sim-mode "$sim_mode" \
   --guided-exploration 0.7 --grasp-threshold 0.7 --push-budget 3 --epsilon-start 0.3 --epsilon-end 0.1 \
   --epsilon-decay "$(( os8_iters * 3 / 4 > 0 ? os8_iters * 3 / 4 : 1 ))"
 done_its=$("$py" -c "import torch; print(torch.load('$out/os8/alternate/last.pt', weights_only=False)['iteration'])")

@@ -83,7 +83,7 @@ class Collector:
         self.weights_iteration = -1  # learner iteration of the weights last set (-1: the nets as given)
         self.ep_: dict[str, int] = {}
         self.obs_: EnvObservation | None = None  # the observation to act on; None: start an episode first
-        self.env = SimEnv(self.geo)
+        self.env = SimEnv(self.geo, sim_mode=cfg.sim_mode)
         self.guide = None
         if cfg.guided_exploration > 0 and not self.stage.goal_agnostic:
             self.guide = HeuristicPlanner(self.geo)

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from pg_policy.models.device import check_device
 from pg_sim.world.scene_families import FAMILIES, GENERATED  # the simulator's generated scene families
+from pg_sim.world.sim_mode import get_sim_mode
 
 TRAIN_SEED_LIMIT = 1_000_000  # training seeds are < this; evaluation seeds are >= this (disjoint)
 
@@ -63,6 +64,8 @@ class TrainConfig:
                             "learner (0 = act and learn in this process, the paper's loop)")
     ray_address: str | None = _f(None, "Ray cluster to run the collectors on: auto or HOST:PORT of the head (None: "
                                        "a local Ray of collectors + 1 CPUs)")
+    sim_mode: str = _f("fast", "simulation mode: fast (kinematic free-space transit, the table a static body) | "
+                               "faithful (every motion stepped); pg_sim.world.sim_mode")
     weights_every: int = _f(10, "learner updates between weight broadcasts to the collectors: the collectors act "
                                 "with weights up to this many updates old")
 
@@ -93,6 +96,7 @@ def from_args(args: argparse.Namespace) -> TrainConfig:
     if cfg.ray_address is not None and cfg.collectors == 0:
         raise ValueError(f"--ray-address {cfg.ray_address!r} needs --collectors N >= 1 (the serial loop runs no Ray)")
     check_device(cfg.device)
+    get_sim_mode(cfg.sim_mode)  # ValueError naming the modes
     return cfg
 
 
