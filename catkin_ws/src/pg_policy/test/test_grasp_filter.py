@@ -69,3 +69,20 @@ def test_min_filter_moves_the_argmax_off_a_speckle_onto_a_plateau():
     assert np.unravel_index(np.argmax(q), q.shape) == (0, 1, 1)
     r, row, col = np.unravel_index(np.argmax(out), out.shape)
     assert 5 <= row <= 6 and 5 <= col <= 6 and out.max() == pytest.approx(0.8)
+
+
+@pytest.mark.parametrize("spec", ["min3", "mean5", "sym+min3", "sym+mean3"])
+def test_a_windowed_map_is_filtered_on_its_box_and_matches_the_full_map_inside(spec):
+    # the learned policy's q_window: Q is finite on a box of cells, -inf around it (a running-sum mean over -inf
+    # would give NaN across whole rows)
+    rng = np.random.default_rng(3)
+    full = rng.random((16, 40, 50))
+    windowed = np.full_like(full, -np.inf)
+    windowed[:, 10:30, 5:35] = full[:, 10:30, 5:35]
+    f = GraspFilter.parse(spec)
+    got, want = f.apply(windowed), f.apply(full)
+    reach = f.size // 2
+    inner = (slice(None), slice(10 + reach, 30 - reach), slice(5 + reach, 35 - reach))
+    np.testing.assert_allclose(got[inner], want[inner])
+    assert not np.isnan(got).any()
+    assert np.isneginf(got[:, :10]).all() and np.isneginf(got[:, :, 35:]).all()

@@ -29,8 +29,8 @@ from pg_policy.policies.model_files import load_nets, metadata_thresholds, resol
 from pg_policy.policies.options import resolved_rules
 from pg_policy.policies.policy import PolicyBase, PolicyOptions, goal_or_all
 
-# Cells of Q beyond a region that the rules read: the grasp filter's k x k squares reach (k - 1) / 2 (exact up to
-# 9 x 9; the shipped min3 reads 1).
+# Cells of Q beyond a region that a map filter reads (the grasp filter's k x k squares reach (k - 1) / 2: exact up
+# to 9 x 9; the shipped min3 reads 1). A primitive without filter rules needs its region only.
 WINDOW_MARGIN_CELLS = 4
 
 
@@ -60,15 +60,16 @@ class LearnedPolicy(PolicyBase):
         self.last_timings: dict[str, float] = {}  # seconds per stage of the last act(): perceive, nets, rule:*, decide
 
     def _q_maps(self, hm: Any, target: np.ndarray, ctx: RuleContext) -> dict[str, np.ndarray]:
-        """{"grasp", "push"}: (R, H, W) float32 maps, full or (q_window) exact on each region's bounding box grown by
-        WINDOW_MARGIN_CELLS and -inf elsewhere (an empty region: all -inf)."""
+        """{"grasp", "push"}: (R, H, W) float32 maps, full or (q_window) exact on each region's bounding box (grown by
+        WINDOW_MARGIN_CELLS for a primitive with filter rules) and -inf elsewhere (an empty region: all -inf)."""
         if not self.q_window:
             return self.nets.q_maps(hm, target)
         shape = (self.nets.num_rotations, *target.shape)
         out = {}
         for role, region in (("grasp", ctx.grasp_region), ("push", ctx.push_region)):
             full = np.full(shape, -np.inf, dtype=np.float32)
-            win = target_window(region, WINDOW_MARGIN_CELLS)
+            filtered = any(r.primitive == role and r.kind == "filter" for r in self.rules.rules)
+            win = target_window(region, WINDOW_MARGIN_CELLS if filtered else 0)
             if win is not None:
                 r0, r1, c0, c1 = win
                 full[:, r0:r1, c0:c1] = self.nets.q_maps(hm, target, nets=(role,), window=win)[role]

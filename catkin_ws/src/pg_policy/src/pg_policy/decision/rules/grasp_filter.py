@@ -84,12 +84,24 @@ class GraspFilter:
 
     def apply(self, q_grasp: np.ndarray) -> np.ndarray:
         """The filtered (R, H, W) float64 map of an (R, H, W) Q_g (R even when symmetric); the input itself when
-        the filter is "none". Raises ValueError for another shape or an odd R with "sym"."""
+        the filter is "none". A windowed map (finite on a box of cells, -inf around it: the learned policy's
+        q_window) is filtered on that box, edges replicated, and stays -inf around it; cells at least (k - 1) / 2
+        inside the box get the full map's values. Raises ValueError for another shape or an odd R with "sym"."""
         q = np.asarray(q_grasp)
         if q.ndim != 3:
             raise ValueError(f"grasp Q map must be (R, H, W), got shape {q.shape}")
         if not self.active:
             return q_grasp
+        known = np.isfinite(q).any(axis=0)
+        if known.any() and not known.all():
+            rows, cols = np.flatnonzero(known.any(axis=1)), np.flatnonzero(known.any(axis=0))
+            box = (slice(None), slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1))
+            out = np.full(q.shape, -np.inf)
+            out[box] = self._filtered(q[box])
+            return out
+        return self._filtered(q)
+
+    def _filtered(self, q: np.ndarray) -> np.ndarray:
         q = q.astype(np.float64)
         if self.symmetric:
             if q.shape[0] % 2:

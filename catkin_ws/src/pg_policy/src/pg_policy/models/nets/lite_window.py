@@ -101,7 +101,8 @@ class LiteWindowQ:
             x = self._input_crop(canvas, angles, *boxes[0], p)
             for i, st in enumerate(trunk):
                 x = F.relu(F.conv2d(x, st.weight, st.bias, st.stride, 0, st.dilation))
-                x = x * _inside(*boxes[i + 1], sizes[i + 1])
+                if _crosses_border(*boxes[i + 1], sizes[i + 1]):
+                    x = x * _inside(*boxes[i + 1], sizes[i + 1])
             feats.append(x)
         head = self.net.head(torch.cat(feats, 1))
         q = self.net._unrotate(head, angles, h, w, [r0, r1, c0, c1], origin * self.stride, side * self.stride)
@@ -143,8 +144,15 @@ class LiteWindowQ:
         grid = torch.stack([cos * xs - sin * ys, sin * xs + cos * ys], -1)
         x = F.grid_sample(canvas.expand(angles.shape[0], -1, -1, -1), grid, mode="bilinear", padding_mode="border",
                           align_corners=False)
+        if bool((origin >= self.shift).all()):
+            return x
         keep = ((u_y >= self.shift).view(-1, 1, side, 1) & (u_x >= self.shift).view(-1, 1, 1, side))
         return x * keep.to(x.dtype)
+
+
+def _crosses_border(origin: Tensor, side: int, full: int) -> bool:
+    """Whether some rotation's box reaches outside the full feature map [0, full)^2."""
+    return bool((origin < 0).any() or (origin + side > full).any())
 
 
 def _inside(origin: Tensor, side: int, full: int) -> Tensor:
