@@ -1,7 +1,7 @@
 """Simulation modes: how the simulator trades step-by-step fidelity for speed (no ROS).
 
-- ``fast`` (the default): the table collides as a separate static body instead of a link of the robot (objects
-  resting on it no longer join the moving robot's contact island: about half the cost per physics step), and the
+- ``fast`` (the default): the table collides as a separate static body, not as a link of the robot (objects
+  resting on it do not join the moving robot's contact island: about half the cost per physics step), and the
   arms cross free space kinematically (pg_sim.world.transit): the joint-space moves of a primitive (home to above
   the pre-pose, and back home) are collision-checked teleports when they keep their clearance from every object,
   followed by physics until the objects are at rest (at most the move's own duration). Outcomes match ``faithful``
