@@ -12,9 +12,10 @@ def rerank(q: np.ndarray, region: np.ndarray, allowed: Callable[[int, int, int],
            top_k: int) -> tuple[np.ndarray, int | None]:
     """(a float64 copy of the (R, H, W) map `q`, the rank of the chosen cell).
 
-    The finite cells of `q` inside the (H, W) bool `region` are walked in descending value (at most `top_k`, ties
-    in index order); the first (rotation, row, col) that `allowed` accepts takes the best value and the cells ranked
-    above it get -inf, so the argmax over the region becomes that cell. When none is accepted (or the region holds
+    The finite cells of `q` inside the (H, W) bool `region` are walked in descending value (at most `top_k`; equal
+    values in the order numpy's argpartition over the whole map leaves them, which the golden decisions pin); the
+    first (rotation, row, col) that `allowed` accepts takes the best value and the cells ranked above it get -inf,
+    so the argmax over the region becomes that cell. When none is accepted (or the region holds
     no finite cell) the copy is unchanged and the rank is None.
     """
     out = np.asarray(q, dtype=np.float64).copy()
