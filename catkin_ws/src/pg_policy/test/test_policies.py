@@ -227,11 +227,15 @@ def test_learned_policies_apply_the_grasp_filter(model_dir):
     from pg_policy.decision.rules.grasp_filter import GraspFilter
 
     obs = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (-0.1, 0.1, CUBE, CUBE, "blue")])
-    raw = make_policy("learned", PolicyOptions(models=(model_dir,)))  # metadata has no filter: none
-    assert "grasp_filter" not in raw.rules
+    # full maps (q_window off), so that the whole filtered map can be compared; the windowed policy decides alike
+    raw = make_policy("learned", PolicyOptions(models=(model_dir,), overrides={"q_window": False}))
+    assert "grasp_filter" not in raw.rules  # metadata has no filter: none
     d_raw = raw.act(obs)
-    pol = learned(model_dir, {"grasp_filter": "sym+min3"})
+    pol = learned(model_dir, {"grasp_filter": "sym+min3", "q_window": False})
     d = pol.act(obs)
+    windowed = learned(model_dir, {"grasp_filter": "sym+min3"}).act(obs)
+    assert (windowed.primitive, windowed.rotation, windowed.row, windowed.col) == (d.primitive, d.rotation, d.row,
+                                                                                   d.col)
     filtered = GraspFilter.parse("sym+min3").apply(raw.q_maps()["grasp"])  # same nets, same observation
     np.testing.assert_allclose(pol.q_maps()["grasp"], filtered)  # q_maps() shows the map the decision used
     np.testing.assert_array_equal(pol.q_maps()["push"], raw.q_maps()["push"])
