@@ -48,10 +48,15 @@ class ArmDriver:
         states = p.getJointStates(self.body_, self.arm.fingers, physicsClientId=self.client_)
         return float(states[0][0]), float(states[1][0])
 
-    @property
-    def velocity_limit(self) -> float:
-        """Joint speed limit (rad/s) of the motions (follow uses 0.9 of it)."""
-        return float(self.vmax_)
+    def segment_duration(self, q0: np.ndarray, q1: np.ndarray, cartesian_s: float = 0.0, dt: float = 1 / 240) -> float:
+        """Simulated seconds `follow` takes from joints q0 to q1 (rad): max(joint distance / 0.9 x the joint speed
+        limit, the segment's Cartesian time `cartesian_s`, one step `dt`)."""
+        return max(float(np.abs(q1 - q0).max()) / (0.9 * self.vmax_), cartesian_s, dt)
+
+    def path_duration(self, path: Sequence[np.ndarray], dt: float = 1 / 240) -> float:
+        """Simulated seconds `follow` takes along a joint-space `path` without Cartesian times."""
+        qs = [np.asarray(q, dtype=np.float64) for q in path]
+        return sum(self.segment_duration(a, b, dt=dt) for a, b in zip(qs[:-1], qs[1:], strict=True))
 
     def place(self, q: Sequence[float], opening: float | None, fingers: Sequence[float] | None = None) -> None:
         """Set the joints to `q` (rad) and the fingers to `opening` (m), or to their two positions `fingers`,
@@ -116,7 +121,7 @@ class ArmDriver:
         qs = [np.asarray(q, dtype=np.float64) for q in path]
         for k in range(1, len(qs)):
             dq = qs[k] - qs[k - 1]
-            duration = max(np.abs(dq).max() / (0.9 * self.vmax_), speeds[k - 1] if speeds else 0.0, dt)
+            duration = self.segment_duration(qs[k - 1], qs[k], speeds[k - 1] if speeds else 0.0, dt)
             n = max(1, int(np.ceil(duration / dt)))
             for i in range(1, n + 1):
                 self._command(qs[k - 1] + dq * (i / n), dq / duration)

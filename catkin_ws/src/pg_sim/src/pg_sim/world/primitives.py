@@ -15,7 +15,7 @@ import numpy as np
 import pybullet as p
 
 from pg_sim.robot.arm_driver import ArmDriver, MotionTimeout
-from pg_sim.world.transit import arm_links, path_duration, transit
+from pg_sim.world.transit import arm_links, transit
 from pg_sim.world.world import World
 
 # Contact solver iterations while the jaw closes and lifts in a grasp below primitives.grasp_min_z, where only the
@@ -245,7 +245,7 @@ class PrimitiveExecutor:
         mode = self.world_.mode
         if mode.kinematic_transit:
             links = self.links_.setdefault(arm, arm_links(self.world_, arm))
-            settle = path_duration(path, driver.velocity_limit, self.world_.time_step) + settle_extra
+            settle = driver.path_duration(path, self.world_.time_step) + settle_extra
             if transit(self.world_, driver, path, links, mode, opening, settle):
                 return True
         driver.follow(path)

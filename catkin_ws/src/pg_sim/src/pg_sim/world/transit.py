@@ -56,13 +56,6 @@ def clear_of_objects(world: World, links: Sequence[int], clearance: float) -> bo
     return True
 
 
-def path_duration(path: Sequence[np.ndarray], velocity_limit: float, dt: float) -> float:
-    """Simulated seconds ArmDriver.follow takes along `path` (joint-space segments at 0.9 x the speed limit)."""
-    qs = [np.asarray(q, dtype=np.float64) for q in path]
-    pairs = zip(qs[:-1], qs[1:], strict=True)
-    return float(sum(max(np.abs(b - a).max() / (0.9 * velocity_limit), dt) for a, b in pairs))
-
-
 def holds_object(world: World, driver: ArmDriver) -> bool:
     """Whether a finger of the arm touches an object (a held object must travel under physics)."""
     return any(c[2] in world.objects
