@@ -47,7 +47,7 @@ def test_cli_writes_markdown_and_png_and_rejects_bad_input(two_policies, tmp_pat
     assert out.exists() and out.with_suffix(".png").stat().st_size > 1000
     assert main(["compare", f"none={tmp_path / 'nothing'}", "--out", str(out)]) == 2  # no results.json
     assert main(["compare", f"good={two_policies / 'good'}", "--out", str(out), "--check", "other"]) == 2
-    with pytest.raises(ValueError, match="not in the protocol"):
+    with pytest.raises(ValueError, match="in none of the report's families"):
         family_of("kitchen/case1")
 
 
@@ -58,3 +58,21 @@ def test_check_adds_the_paired_comparison_on_common_trials(two_policies):
     # 4 common packed trials: weak failed two that good completed; GS per trial 1 - 0.5 twice, 1 - 0 twice
     assert "| packed | weak | 4 | 2 | 0 | 0.5 | 75.0 ± 14.4 |" in text
     assert "| random | weak |" not in text  # no common random trials
+
+
+def test_held_out_families_have_their_own_tables_targets_and_pairing(tmp_path):
+    assert [family_of(s) for s in ("novel-packed-8", "novel-10", "mixed-15", "random-10")] == [
+        "novel-packed", "novel", "mixed", "random"]
+    # novel-10: 9 of 10 completed (C 90 % < 95 %); novel-packed-8: 10 of 10 (meets C >= 90 %); mixed-15: no target
+    a = [_trial("novel-10", 1000000 + i, i > 0, 1, 1 if i > 0 else 0, 0) for i in range(10)]
+    a += [_trial("novel-packed-8", 1000000 + i, True, 1, 1, 1) for i in range(10)]
+    a += [_trial("mixed-15", 1000000 + i, i % 2 == 0, 1, int(i % 2 == 0), 0) for i in range(10)]
+    b = [_trial("novel-10", 1000000 + i, i > 3, 1, int(i > 3), 0) for i in range(10)]
+    _write(tmp_path / "a", a)
+    _write(tmp_path / "b", b)
+    text = markdown([load_policy("a", tmp_path / "a"), load_policy("b", tmp_path / "b")], check="a")
+    assert "### novel" in text and "### novel-packed" in text and "### mixed" in text
+    assert "1/2 scenes meet" in text and "- novel-10: C 90.0 % < 95 %; GS 90.0 % < 85.0 %" not in text
+    assert "- novel-10: C 90.0 % < 95 %" in text and "novel-packed-8:" not in text.split("### Targets")[1]
+    assert "| novel | b | 10 | 3 | 0 | 0.25 |" in text  # a completed trials 1-3 that b did not
+    assert main(["compare", f"a={tmp_path / 'a'}", "--out", str(tmp_path / "r.md")]) == 0

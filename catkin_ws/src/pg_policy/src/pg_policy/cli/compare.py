@@ -1,5 +1,5 @@
 """`pushgrasp compare`: several policies' `pushgrasp eval` results side by side in the paper's table layout, with
-the paper's figures and (for --check) the issue's targets. See pg_policy.evaluation.compare_report."""
+the paper's figures and (for --check) the project's targets. See pg_policy.evaluation.compare_report."""
 
 from __future__ import annotations
 
