@@ -60,6 +60,28 @@ def test_goal_stage_collectors_skip_scenes_within_their_own_numbers(tmp_path):
     assert all(a < b for eps in seen for a, b in zip(eps, eps[1:], strict=False))
 
 
+def test_a_scene_that_cannot_be_built_is_skipped_and_reported(tmp_path, capsys):
+    cfg = TrainConfig(stage="grasp-agnostic", out=tmp_path, scene="random-2")
+    col = Collector(cfg)
+    real_reset, calls = col.env.reset, []
+
+    def reset(scene, seed=None):  # the real simulator, except that episode 2's scene has a broken object file
+        calls.append(seed)
+        if len(calls) == 2:
+            raise ValueError("blob.obj: 35 of 35 OBJ vertices are not finite")
+        return real_reset(scene, seed=seed)
+
+    col.env.reset = reset
+    try:
+        assert _episodes(col, 2) == [1, 3]  # episode 2 skipped, its number used up
+        assert "episode 2: scene random-2" in capsys.readouterr().err
+        col.env.reset = lambda scene, seed=None: (_ for _ in ()).throw(ValueError("bad scene"))
+        with pytest.raises(RuntimeError, match="no training scene could be built in 10 draws; last: .*bad scene"):
+            col._reset()
+    finally:
+        col.close()
+
+
 def test_serial_learner_is_deterministic_and_resumes_with_the_next_episode(tmp_path):
     """Same seed, same log (but wall_s); the serial loop draws its random numbers in the order of the single-process
     trainer it replaced. (A resumed run is not bit-identical to an uninterrupted one: a PyBullet world's reset

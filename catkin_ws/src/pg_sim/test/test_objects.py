@@ -16,6 +16,7 @@ from pg_sim.objects.catalog import (
     parse_id,
     split_of,
 )
+from pg_sim.objects.pybullet_assets import BLOB_COUNT, BROKEN_BLOBS, data_path
 from pg_sim.scenes.meshes import collision_file, load_obj
 from pg_sim.scenes.shapes import HULL_MARGIN
 
@@ -39,11 +40,34 @@ def test_bad_object_ids_are_refused(bad):
     assert len(str(err.value)) < 300
 
 
+def test_broken_pybullet_blobs_are_left_out_and_refused():
+    """The installed pybullet_data's blobs with a non-finite vertex are exactly BROKEN_BLOBS; the catalogue lists
+    none of them, asking for one is a clear error, and load_obj refuses such a file."""
+    broken = set()
+    for i in range(BLOB_COUNT):
+        text = blob_path_unchecked(i).read_text(encoding="utf-8", errors="replace")
+        rows = [ln.split()[1:4] for ln in text.splitlines() if ln.startswith("v ")]
+        if not np.isfinite(np.asarray(rows, dtype=np.float64)).all():
+            broken.add(i)
+    assert broken == set(BROKEN_BLOBS)
+    listed = {int(i.split("/")[1]) for split in ("train", "heldout") for i in object_ids(split, ("blob",))["blob"]}
+    assert not listed & broken and len(listed) == BLOB_COUNT - len(broken)
+    for i in sorted(broken):
+        with pytest.raises(ValueError, match="non-finite"):
+            object_spec(f"blob/{i}", (0, 255, 0), (0.0, 0.0, 0.02, 0.0, 0.0, 0.0), "b")
+        with pytest.raises(ValueError, match="not finite"):
+            load_obj(blob_path_unchecked(i))
+
+
 def test_unknown_split_or_kind_is_refused():
     with pytest.raises(ValueError, match="unknown split"):
         object_ids("test")
     with pytest.raises(ValueError, match="unknown object kind"):
         object_ids("train", ("thin", "spoon"))
+
+
+def blob_path_unchecked(index: int):
+    return data_path(f"random_urdfs/{index:03d}/{index:03d}.obj")
 
 
 def _dims(kind: str, index: int) -> np.ndarray:

@@ -16,6 +16,7 @@ A scene whose target is not visible is skipped (the number is used up).
 from __future__ import annotations
 
 import dataclasses
+import sys
 from dataclasses import dataclass
 from typing import Any
 
@@ -114,16 +115,27 @@ class Collector:
 
     def _reset(self, draws: int = 10) -> EnvObservation:
         """A new episode: the next training scene; goal-conditioned stages draw again (up to `draws` scenes) while
-        the picked target is not visible at all (a policy cannot act on a target it does not see)."""
+        the picked target is not visible at all (a policy cannot act on a target it does not see). A scene that
+        cannot be built (ValueError from the simulator: a bad object file, a scene that does not come to rest) is
+        reported on stderr and skipped like an invisible target. Raises RuntimeError when no draw gives a scene."""
+        obs, errors = None, []
         for _ in range(draws):
             self.episode += self.count
             seed = (self.cfg.seed * 100_003 + self.episode) % 1_000_000
-            self.env.reset(self.scenes_[(self.episode - 1) % len(self.scenes_)], seed=seed)
+            scene = self.scenes_[(self.episode - 1) % len(self.scenes_)]
+            try:
+                self.env.reset(scene, seed=seed)
+            except ValueError as exc:
+                errors.append(f"{scene} seed {seed}: {exc}")
+                print(f"[train] episode {self.episode}: scene {scene} seed {seed} skipped: {exc}", file=sys.stderr)
+                continue
             self._pick_target()
             self.ep_ = {"actions": 0, "failed": 0, "pushes": 0, "in_row": 0}
             obs = self.env.observe()
             if not self._episode_over(obs):
                 break
+        if obs is None:
+            raise RuntimeError(f"no training scene could be built in {draws} draws; last: {errors[-1]}")
         return obs
 
     def _episode_over(self, obs: EnvObservation | None = None) -> bool:

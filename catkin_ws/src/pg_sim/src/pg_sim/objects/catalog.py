@@ -3,8 +3,8 @@
 An object id is ``<kind>/<index>``:
 - generated kinds (pg_sim.objects.generated: thin, rod, rolling, concave, small, wide): index 0-999, dimensions drawn
   from a generator seeded by (kind, index). Split by index: 0-799 training, 800-999 held-out.
-- ``blob/<index>``: pybullet_data's procedural ``random_urdfs`` (0-999). Split by index: 0-799 training, 800-999
-  held-out.
+- ``blob/<index>``: pybullet_data's procedural ``random_urdfs`` (0-999, less the broken ones of
+  pybullet_assets.BROKEN_BLOBS). Split by index: 0-799 training, 800-999 held-out.
 - ``named/<name>``: pybullet_data's named meshes (pg_sim.objects.pybullet_assets.NAMED). Split by name:
   held-out ``NAMED_HELD_OUT`` (duck, bunny, teddy, mug, torus), training the rest.
 Held-out objects are never trained on: the training scene families draw from ``object_ids("train")`` only.
@@ -26,7 +26,7 @@ import numpy as np
 import trimesh
 
 from pg_sim.objects import generated
-from pg_sim.objects.pybullet_assets import BLOB_COUNT, BLOB_SCALE, NAMED, blob_path, data_path
+from pg_sim.objects.pybullet_assets import BLOB_COUNT, BLOB_SCALE, BROKEN_BLOBS, NAMED, blob_path, data_path
 from pg_sim.scenes.meshes import collision_file, load_obj, mesh_volume
 from pg_sim.scenes.scene import ObjectSpec, Pose
 from pg_sim.scenes.shapes import cache_dir
@@ -76,7 +76,7 @@ def object_ids(split: str, kinds: tuple[str, ...] = KINDS) -> dict[str, list[str
         else:
             count = BLOB_COUNT if kind == "blob" else INDEX_COUNT
             rng = range(HELD_OUT_FROM, count) if split == "heldout" else range(HELD_OUT_FROM)
-            out[kind] = [f"{kind}/{i}" for i in rng]
+            out[kind] = [f"{kind}/{i}" for i in rng if not (kind == "blob" and i in BROKEN_BLOBS)]
     return out
 
 

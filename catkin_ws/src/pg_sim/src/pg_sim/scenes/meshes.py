@@ -30,7 +30,8 @@ class ObjMesh:
 
 
 def load_obj(path: str | os.PathLike[str]) -> ObjMesh:
-    """Read the geometry of a Wavefront .obj file. Raises FileNotFoundError, or ValueError for a file without faces."""
+    """Read the geometry of a Wavefront .obj file. Raises FileNotFoundError, or ValueError for a file without faces
+    or with a non-finite vertex (nan, inf)."""
     verts: list[tuple[float, float, float]] = []
     faces: list[tuple[int, ...]] = []
     objects = 0
@@ -53,7 +54,11 @@ def load_obj(path: str | os.PathLike[str]) -> ObjMesh:
         raise ValueError(f"{path}: OBJ file has no faces")
     if any(i < 0 or i >= len(verts) for f in faces for i in f):
         raise ValueError(f"{path}: OBJ face index out of range")
-    return ObjMesh(np.asarray(verts, dtype=np.float64), tuple(faces), max(objects, 1))
+    vertices = np.asarray(verts, dtype=np.float64)
+    if not np.isfinite(vertices).all():
+        bad = int((~np.isfinite(vertices)).any(axis=1).sum())
+        raise ValueError(f"{path}: {bad} of {len(vertices)} OBJ vertices are not finite")
+    return ObjMesh(vertices, tuple(faces), max(objects, 1))
 
 
 def mesh_volume(mesh: ObjMesh) -> float:
