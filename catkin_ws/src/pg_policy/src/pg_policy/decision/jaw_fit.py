@@ -125,7 +125,8 @@ class JawFit:
         """`grasp_fit` for K grasps at once: (clearance (K,) m, grasp points (K, 2), widths (K,) m).
 
         centres (K, 2), yaws (K,), z_grasp (K,): the grasps; t_xy, o_xy, o_h as in `grasp_fit`. A grasp that
-        `grasp_fit` answers None for gets clearance NaN; -1 where a neighbour stands in a finger's sweep.
+        `grasp_fit` answers None for gets clearance NaN; -1 where a neighbour stands in a finger's sweep; otherwise
+        `grasp_fit`'s clearance up to float rounding (the sign, which the grasp check reads, is the same).
         """
         p = self.p
         centres = np.asarray(centres, dtype=np.float64).reshape(-1, 2)
@@ -150,15 +151,15 @@ class JawFit:
         mid = np.where(ok, 0.5 * (lo + hi), 0.0)
         c2 = centres + mid[:, None] * u
         clearance = np.full(k, np.nan)
-        reach = self.half_open + self.finger_t + p.margin
-        for i in np.flatnonzero(ok):  # neighbours: few grasps get here, each with its own blocking set
-            block = o_h > z_grasp[i] - p.obstacle_tol
-            if not block.any():
-                clearance[i] = 1.0
-                continue
-            orel = o_xy[block] - c2[i]
-            ds = np.maximum(np.abs(orel @ u[i]) - reach, 0.0)
-            dt = np.maximum(np.abs(orel @ v[i]) - (self.finger_w / 2 + p.margin), 0.0)
-            dist = np.hypot(ds, dt)
-            clearance[i] = float(dist.min()) if (dist > 0).all() else -1.0
+        idx = np.flatnonzero(ok)
+        if idx.size:
+            # neighbours of every fitting grasp at once, each grasp with its own blocking set (its grasp z); the
+            # offsets along u and v as o . u - c2 . u: one (K_o, 2) x (2, n) product instead of (n, K_o, 2) arrays
+            reach = self.half_open + self.finger_t + p.margin
+            block = o_h[:, None] > (z_grasp[idx] - p.obstacle_tol)[None]  # (K_o, n)
+            ui, vi, ci = u[idx], v[idx], c2[idx]
+            ds = np.maximum(np.abs(o_xy @ ui.T - (ci * ui).sum(1)) - reach, 0.0)
+            dt = np.maximum(np.abs(o_xy @ vi.T - (ci * vi).sum(1)) - (self.finger_w / 2 + p.margin), 0.0)
+            nearest = np.sqrt(np.where(block, ds * ds + dt * dt, np.inf).min(axis=0, initial=np.inf))
+            clearance[idx] = np.where(~block.any(axis=0), 1.0, np.where(nearest > 0, nearest, -1.0))
         return clearance, c2, np.where(ok, hi - lo, np.nan)

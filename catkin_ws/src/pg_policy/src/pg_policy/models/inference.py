@@ -19,7 +19,7 @@ from torch import Tensor, nn
 
 from pg_core.heightmap import Heightmap
 from pg_policy.models.model_io import ModelLoadError, load_qnet
-from pg_policy.models.nets.lite_window import LiteWindowQ, supports_windows
+from pg_policy.models.nets.lite_window import LiteWindowQ, supports_windows, windowed_q
 from pg_policy.models.nets.qnet import QNetConfig, build_qnet
 
 ROLES = ("grasp", "push")
@@ -152,9 +152,7 @@ class PolicyNets:
             if margin < 0:
                 raise ValueError("these nets have no exact window margin: give `margin` (px) explicitly")
             if exact_layers:
-                with torch.inference_mode():
-                    return {role: self.windowed[role].q(c, d, m, rots, tuple(window)).float().cpu().numpy()
-                            for role in nets}
+                return self.q_windows(heightmap, mask, {role: tuple(window) for role in nets}, rots)
         out: dict[str, np.ndarray] = {}
         shared: dict[bool, tuple[Tensor, ...]] = {}
         # optimized_execution(False): TorchScript's profiling executor would re-specialise (seconds for DenseNet) on
@@ -174,6 +172,24 @@ class PolicyNets:
                     q = net.q_from_rotated_window(cr, dr, origins, rots, h, w, window)
                 out[role] = q[0].float().cpu().numpy()
         return out
+
+    def q_windows(self, heightmap: Heightmap, mask: np.ndarray, windows: dict[str, Window],
+                  rotations: Sequence[int] | None = None) -> dict[str, np.ndarray]:
+        """{role: Q (R, rows, cols) float32 of windows[role]} with each net's own window, as `q_maps(...,
+        window=windows[role])` gives them; lite nets share one sampling of the rotated inputs (`windowed_q`).
+        Raises ValueError for unknown roles or windows outside the map."""
+        unknown = [n for n in windows if n not in self.nets]
+        if unknown:
+            raise ValueError(f"unknown nets {unknown}; known: {list(self.nets)}")
+        if not all(role in self.windowed for role in windows):
+            return {role: self.q_maps(heightmap, mask, rotations, (role,), win)[role] for role, win in windows.items()}
+        rots = list(range(self.num_rotations)) if rotations is None else [int(r) for r in rotations]
+        c, d, m = heightmap_tensors(heightmap, mask, self.device)
+        roles = list(windows)
+        with torch.inference_mode():
+            qs = windowed_q([self.windowed[r] for r in roles], c, d, m, rots,
+                            [tuple(int(v) for v in windows[r]) for r in roles])
+        return {role: q.float().cpu().numpy() for role, q in zip(roles, qs, strict=True)}
 
 
 QInference = PolicyNets

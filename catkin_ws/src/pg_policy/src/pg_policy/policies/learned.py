@@ -29,8 +29,9 @@ from pg_policy.policies.model_files import load_nets, metadata_thresholds, resol
 from pg_policy.policies.options import resolved_rules
 from pg_policy.policies.policy import PolicyBase, PolicyOptions, goal_or_all
 
-# Cells of Q beyond a region that a map filter reads (the grasp filter's k x k squares reach (k - 1) / 2: exact up
-# to 9 x 9; the shipped min3 reads 1). A primitive without filter rules needs its region only.
+# Cells of Q computed beyond a region: each rule's `reach` (the grasp filter's k x k squares read (k - 1) / 2 cells
+# around a cell; the shipped min3 reads 1), this many for a filter rule whose reach is unknown. A primitive without
+# filter rules needs its region only.
 WINDOW_MARGIN_CELLS = 4
 
 
@@ -65,14 +66,19 @@ class LearnedPolicy(PolicyBase):
         if not self.q_window:
             return self.nets.q_maps(hm, target)
         shape = (self.nets.num_rotations, *target.shape)
-        out = {}
+        windows = {}
         for role, region in (("grasp", ctx.grasp_region), ("push", ctx.push_region)):
-            full = np.full(shape, -np.inf, dtype=np.float32)
-            filtered = any(r.primitive == role and r.kind == "filter" for r in self.rules.rules)
-            win = target_window(region, WINDOW_MARGIN_CELLS if filtered else 0)
+            reach = [r.reach() for r in self.rules.rules if r.primitive == role]
+            win = target_window(region, max((WINDOW_MARGIN_CELLS if n is None else n for n in reach), default=0))
             if win is not None:
-                r0, r1, c0, c1 = win
-                full[:, r0:r1, c0:c1] = self.nets.q_maps(hm, target, nets=(role,), window=win)[role]
+                windows[role] = win
+        q = self.nets.q_windows(hm, target, windows) if windows else {}
+        out = {}
+        for role in ("grasp", "push"):
+            full = np.full(shape, -np.inf, dtype=np.float32)
+            if role in q:
+                r0, r1, c0, c1 = windows[role]
+                full[:, r0:r1, c0:c1] = q[role]
             out[role] = full
         return out
 

@@ -136,3 +136,7 @@ class GraspFilterRule(Rule):
 
     def adjust(self, q: np.ndarray, ctx: RuleContext) -> np.ndarray:
         return self.filter.apply(q)
+
+    def reach(self) -> int:
+        """The spatial filter's half side (min3: 1 cell); 0 for "sym" and "none"."""
+        return (self.filter.size - 1) // 2 if self.filter.spatial else 0

@@ -104,3 +104,8 @@ class Rule:
     def candidate_test(self, ctx: RuleContext) -> CandidateTest | None:
         """A yes/no test of a candidate (rotation, row, col) in this context, or None (no opinion)."""
         return None
+
+    def reach(self) -> int | None:
+        """How far (cells) from a cell `adjust` reads the map to compute that cell's value: 0 for rules that do not
+        reshape the map, None when unknown (then a windowed Q map gets a generous margin)."""
+        return 0 if self.kind != "filter" else None

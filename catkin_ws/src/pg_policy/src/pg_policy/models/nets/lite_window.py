@@ -16,6 +16,7 @@ Shapes: heightmap (H, W) cells; canvas P x P px (`canvas_size`); trunk output st
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import torch
@@ -42,6 +43,21 @@ class _Stage:
     def output_size(self, size: int) -> int:
         """Side of this stage's full output for a full input of side `size` (with its padding)."""
         return (size + 2 * self.padding - self.dilation * (self.kernel - 1) - 1) // self.stride + 1
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """What one net computes for one window: yaw per rotation (R,) float64, map H x W, canvas side P px, the window,
+    the full side of every stage's output and the box (origins (R, 2) int64, side) of the trunk input (boxes[0])
+    and of every stage's output."""
+
+    angles: Tensor
+    h: int
+    w: int
+    p: int
+    window: tuple[int, int, int, int]
+    sizes: list[int]
+    boxes: list[tuple[Tensor, int]]
 
 
 def _fold(seq: nn.Sequential) -> _Stage:
@@ -75,38 +91,66 @@ class LiteWindowQ:
             self.trunks = [[_fold(s) for s in t.features] for t in (eager.color_trunk, eager.depth_trunk)]
         self.shift = int(eager.color_trunk.shift)
         self.stride = int(eager.color_trunk.stride)
+        stem = self.trunks[0][0]
+        if stem.kernel != stem.stride or stem.padding != 0 or stem.dilation != 1:
+            raise ValueError("windowed Q needs a patchify stem (kernel = stride, no padding)")
+        self.patch = stem.stride  # the stem's k: it reads k x k patches of the input
 
     def q(self, color: Tensor, depth: Tensor, mask: Tensor | None, rotations: list[int],
           window: tuple[int, int, int, int]) -> Tensor:
         """Q (R, rows, cols) of the window (row0, row1, col0, col1) cells for (1, 3, H, W) colour in [0, 1], (1, 1,
         H, W) depth (m) and mask; raises ValueError for a window outside the map or a batch of more than one."""
-        h, w = int(depth.shape[2]), int(depth.shape[3])
+        return windowed_q([self], color, depth, mask, rotations, [window])[0]
+
+    def plan(self, h: int, w: int, rotations: list[int], window: tuple[int, int, int, int],
+             device: torch.device) -> _Plan:
+        """The boxes every stage computes for the window cells of an H x W map. Raises ValueError for a window
+        outside the map."""
         r0, r1, c0, c1 = (int(v) for v in window)
-        if color.shape[0] != 1 or not (0 <= r0 < r1 <= h and 0 <= c0 < c1 <= w):
-            raise ValueError(f"windowed Q takes one image and a window inside the {h} x {w} map, got {window}")
+        if not (0 <= r0 < r1 <= h and 0 <= c0 < c1 <= w):
+            raise ValueError(f"windowed Q takes a window inside the {h} x {w} map, got {window}")
         p = canvas_size(h, w)
-        angles = self.net._angles(rotations, color.device)
-        stages = self.trunks[0]
+        angles = self.net._angles(rotations, device)
         sizes = [p]  # full side of every stage's output
-        for st in stages:
+        for st in self.trunks[0]:
             sizes.append(st.output_size(sizes[-1]))
         origin, side = self._head_box(angles, (r0, r1, c0, c1), h, w, p, sizes[-1])
         boxes = [(origin, side)]  # output box of each stage, last stage first
-        for st in reversed(stages):
+        for st in reversed(self.trunks[0]):
             boxes.append(st.input_box(*boxes[-1]))
         boxes.reverse()  # boxes[0]: the trunk input; boxes[i + 1]: stage i's output
-        c, d = self.net._canvases(color, depth, mask)
+        return _Plan(angles, h, w, p, (r0, r1, c0, c1), sizes, boxes)
+
+    def canvas(self, color: Tensor, depth: Tensor, mask: Tensor | None) -> Tensor:
+        """(1, 6, P, P): the colour trunk's canvas (channels 0-2) and the depth trunk's (3-5), normalised."""
+        return torch.cat(self.net._canvases(color, depth, mask), 1)
+
+    def stem(self, patches: Tensor, m: int) -> list[Tensor]:
+        """(R, 6 k^2, m^2) patch-ordered trunk inputs (`_patches`) -> the first stage's output of each trunk, (R, C0,
+        m, m): the k x k / k stem convolution as one matrix product per trunk (channel c, patch offset (dy, dx) at
+        row c k^2 + dy k + dx, as the weight's layout)."""
+        out = []
+        half = patches.shape[1] // 2
+        for trunk, x in zip(self.trunks, (patches[:, :half], patches[:, half:]), strict=True):
+            st = trunk[0]
+            y = torch.matmul(st.weight.reshape(st.weight.shape[0], -1), x) + st.bias.view(1, -1, 1)
+            out.append(F.relu(y).view(x.shape[0], -1, m, m))
+        return out
+
+    def q_from_stem(self, stems: list[Tensor], plan: _Plan) -> Tensor:
+        """The stem outputs of both trunks on `plan`'s stage-0 box -> Q (R, rows, cols) of its window."""
         feats = []
-        for trunk, canvas in zip(self.trunks, (c, d), strict=True):
-            x = self._input_crop(canvas, angles, *boxes[0], p)
+        for trunk, x in zip(self.trunks, stems, strict=True):
             for i, st in enumerate(trunk):
-                x = F.relu(F.conv2d(x, st.weight, st.bias, st.stride, 0, st.dilation))
-                if _crosses_border(*boxes[i + 1], sizes[i + 1]):
-                    x = x * _inside(*boxes[i + 1], sizes[i + 1])
+                if i > 0:
+                    x = F.relu(F.conv2d(x, st.weight, st.bias, st.stride, 0, st.dilation))
+                if _crosses_border(*plan.boxes[i + 1], plan.sizes[i + 1]):
+                    x = x * _inside(*plan.boxes[i + 1], plan.sizes[i + 1])
             feats.append(x)
         head = self.net.head(torch.cat(feats, 1))
-        q = self.net._unrotate(head, angles, h, w, [r0, r1, c0, c1], origin * self.stride, side * self.stride)
-        return q
+        origin, side = plan.boxes[-1]
+        return self.net._unrotate(head, plan.angles, plan.h, plan.w, list(plan.window), origin * self.stride,
+                                  side * self.stride)
 
     def _head_box(self, angles: Tensor, window: tuple[int, int, int, int], h: int, w: int, p: int,
                   m: int) -> tuple[Tensor, int]:
@@ -131,23 +175,28 @@ class LiteWindowQ:
         origin = torch.stack([torch.minimum(lo, torch.full_like(lo, m - side)) for lo, _ in lo_hi], 1)
         return origin.to(torch.long), side
 
-    def _input_crop(self, canvas: Tensor, angles: Tensor, origin: Tensor, side: int, p: int) -> Tensor:
-        """(R, C, side, side): the trunk's input (the rotated canvas shifted by `shift` px, zeros in the shifted-in
-        rows and columns) on the box at `origin` (R, 2)."""
-        steps = torch.arange(side, device=canvas.device)
-        u_y = origin[:, 0:1] + steps  # (R, side) rows of the shifted input
-        u_x = origin[:, 1:2] + steps
-        ys = ((2.0 * (u_y - self.shift).to(torch.float32) + 1.0) / p - 1.0).unsqueeze(2)  # (R, side, 1)
-        xs = ((2.0 * (u_x - self.shift).to(torch.float32) + 1.0) / p - 1.0).unsqueeze(1)  # (R, 1, side)
-        cos = torch.cos(angles).to(torch.float32).view(-1, 1, 1)
-        sin = torch.sin(angles).to(torch.float32).view(-1, 1, 1)
-        grid = torch.stack([cos * xs - sin * ys, sin * xs + cos * ys], -1)
-        x = F.grid_sample(canvas.expand(angles.shape[0], -1, -1, -1), grid, mode="bilinear", padding_mode="border",
-                          align_corners=False)
-        if bool((origin >= self.shift).all()):
-            return x
-        keep = ((u_y >= self.shift).view(-1, 1, side, 1) & (u_x >= self.shift).view(-1, 1, 1, side))
-        return x * keep.to(x.dtype)
+    def _patches(self, canvas: Tensor, angles: Tensor, origin: Tensor, side: int, p: int) -> Tensor:
+        """(R, C k^2, m^2), m = side / k: the trunk input (the rotated canvas shifted by `shift` px, zeros in the
+        shifted-in rows and columns) on the box at `origin` (R, 2) (multiples of k), sampled straight into the
+        stem's patch order: channel c, offset (dy, dx) inside patch (i, j) at [c k^2 + dy k + dx, i m + j]. Every
+        pixel is sampled at the same point as in the (R, C, side, side) image, only stored elsewhere."""
+        k, r = self.patch, angles.shape[0]
+        m = side // k
+        grid_steps = torch.arange(m, device=canvas.device).view(1, 1, m) * k + torch.arange(
+            k, device=canvas.device).view(1, k, 1)
+        u_y = origin[:, 0].view(-1, 1, 1) + grid_steps  # (R, k, m): input row of offset dy in patch row i
+        u_x = origin[:, 1].view(-1, 1, 1) + grid_steps
+        ys = ((2.0 * (u_y - self.shift).to(torch.float32) + 1.0) / p - 1.0).view(r, k, 1, m, 1)
+        xs = ((2.0 * (u_x - self.shift).to(torch.float32) + 1.0) / p - 1.0).view(r, 1, k, 1, m)
+        cos = torch.cos(angles).to(torch.float32).view(-1, 1, 1, 1, 1)
+        sin = torch.sin(angles).to(torch.float32).view(-1, 1, 1, 1, 1)
+        grid = torch.stack(torch.broadcast_tensors(cos * xs - sin * ys, sin * xs + cos * ys), -1)
+        x = F.grid_sample(canvas.expand(r, -1, -1, -1), grid.reshape(r, k * k, m * m, 2), mode="bilinear",
+                          padding_mode="border", align_corners=False)  # (R, C, k^2, m^2)
+        if not bool((origin >= self.shift).all()):
+            keep = (u_y >= self.shift).view(r, 1, k, 1, m, 1) & (u_x >= self.shift).view(r, 1, 1, k, 1, m)
+            x = x * keep.reshape(r, 1, k * k, m * m).to(x.dtype)
+        return x.reshape(r, -1, m * m)
 
 
 def _crosses_border(origin: Tensor, side: int, full: int) -> bool:
@@ -163,3 +212,39 @@ def _inside(origin: Tensor, side: int, full: int) -> Tensor:
     ok = ((rows >= 0) & (rows < full)).view(-1, 1, side, 1) & ((cols >= 0) & (cols < full)).view(-1, 1, 1, side)
     return ok.to(torch.float32)
 
+
+
+def windowed_q(nets: Sequence[LiteWindowQ], color: Tensor, depth: Tensor, mask: Tensor | None, rotations: list[int],
+               windows: Sequence[tuple[int, int, int, int]]) -> list[Tensor]:
+    """Q (R, rows, cols) of windows[i] for nets[i] (each as `LiteWindowQ.q`), sharing the input sampling: nets whose
+    canvases agree (same goal input and input shift) sample their rotated canvases once, colour and depth together,
+    on the union of their input boxes, straight into the stem's patch order; each net applies its stem there (a
+    matrix product, cheap) and reads its own box of stem cells out of it. Every sampled pixel depends on its
+    position only, so the values are those of separate calls. Raises ValueError as `LiteWindowQ.q`."""
+    if len(nets) != len(windows):
+        raise ValueError(f"windowed Q: {len(nets)} nets but {len(windows)} windows")
+    if color.shape[0] != 1:
+        raise ValueError(f"windowed Q takes one image, got a batch of {color.shape[0]}")
+    h, w = int(depth.shape[2]), int(depth.shape[3])
+    plans = [net.plan(h, w, rotations, win, color.device) for net, win in zip(nets, windows, strict=True)]
+    out: list[Tensor | None] = [None] * len(nets)
+    groups: dict[tuple[bool, int], list[int]] = {}
+    for i, net in enumerate(nets):
+        groups.setdefault((bool(net.net.use_mask), net.shift), []).append(i)
+    for members in groups.values():
+        first = nets[members[0]]
+        canvas = first.canvas(color, depth, mask)
+        lo = torch.stack([plans[i].boxes[0][0] for i in members]).amin(0)  # (R, 2)
+        hi = torch.stack([plans[i].boxes[0][0] + plans[i].boxes[0][1] for i in members]).amax(0)
+        side = int((hi - lo).max())
+        k = first.patch
+        patches = first._patches(canvas, plans[members[0]].angles, lo, side, plans[members[0]].p)
+        for i in members:
+            origin, s = plans[i].boxes[0]
+            off = torch.div(origin - lo, k, rounding_mode="floor").tolist()  # stem cells
+            stems = nets[i].stem(patches, side // k)
+            if s != side or any(any(o) for o in off):
+                m = s // k
+                stems = [torch.stack([f[r, :, a:a + m, b:b + m] for r, (a, b) in enumerate(off)]) for f in stems]
+            out[i] = nets[i].q_from_stem(stems, plans[i])
+    return [q for q in out if q is not None]
