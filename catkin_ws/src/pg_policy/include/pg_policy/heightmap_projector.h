@@ -117,10 +117,10 @@ class HeightmapProjector {
                                                         const CameraIntrinsics& intrinsics);
 
  private:
-  // Sizes and clears `out`, the per-cell running max and the per-point scratch for `points` points (throws
-  // std::invalid_argument above 2^31 - 1 points); finish() writes heights, validity and the winners' colours,
-  // colour_of(point index, rgb out[3]).
-  void begin(HeightmapGrid& out, std::size_t points);
+  // Sizes and clears `out`, the per-cell running max and the per-point scratch for `scratch` points of a frame of
+  // `points` points (throws std::invalid_argument above 2^31 - 1 points); finish() writes heights, validity and
+  // the winners' colours, colour_of(cell index, winning point index, rgb out[3]).
+  void begin(HeightmapGrid& out, std::size_t points, std::size_t scratch);
   template <class ColourOf>
   void finish(HeightmapGrid& out, ColourOf colour_of) const;
 
@@ -129,8 +129,9 @@ class HeightmapProjector {
   int cols_ = 0;
   std::vector<double> best_;          // rows * cols: running max height (m above z_min), -inf where empty
   std::vector<std::int32_t> winner_;  // rows * cols: input index of each cell's highest point, -1 where empty
-  std::vector<std::int32_t> cell_;    // per point: row * cols + col, -1 when not used
-  std::vector<double> point_height_;  // per point: height above z_min (m, >= 0)
+  std::vector<std::uint32_t> colour_;  // rows * cols: cloud path, packed 0x00RRGGBB of each cell's highest point
+  std::vector<std::int32_t> cell_;    // per point of the current chunk: row * cols + col, -1 when not used
+  std::vector<double> point_height_;  // per point of the current chunk: height above z_min (m, >= 0)
   std::vector<double> depth_row_;     // depth path: one image row in metres
 };
 
