@@ -200,6 +200,20 @@ def test_mesh_shape_convex_loads_directly_concave_is_decomposed_once(client: int
         spawn_object(client, ObjectSpec("mesh", None, (1, 2, 3), (0, 0, 0, 0, 0, 0), str(tmp_path / "none.obj")))
 
 
+def test_decomposition_keeps_vhacd_output_off_stdout(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                     capfd: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setenv("PUSHGRASP_CACHE", str(tmp_path / "own-cache"))  # decomposed here, not reused
+    ell = tmp_path / "ell.obj"
+    poly = [(0, 0), (0.06, 0), (0.06, 0.03), (0.03, 0.03), (0.03, 0.06), (0, 0.06)]
+    _write_prism_obj(ell, poly, 0.015, [(3, 4, 5), (3, 5, 0), (3, 0, 1), (3, 1, 2)])
+    capfd.readouterr()
+    out = meshes.decomposed_obj(ell)
+    print("after")
+    captured = capfd.readouterr()
+    assert out.exists() and "V-HACD" not in captured.out and captured.out == "after\n"
+    assert list(out.parent.glob(".*.log")) == []  # its log goes with the temporary files
+
+
 def test_colours() -> None:
     assert resolve_color("green") == (89, 161, 79) == PALETTE["green"]
     assert resolve_color("Grey") == COLORS["gray"] and resolve_color([1, 2, 3]) == (1, 2, 3)

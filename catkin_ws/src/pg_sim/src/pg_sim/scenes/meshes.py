@@ -8,9 +8,12 @@ directly.
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import hashlib
 import os
-from collections.abc import Sequence
+import sys
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -86,6 +89,24 @@ def _scale3(scale: float | Sequence[float]) -> Vec3:
     return (vals[0], vals[1], vals[2])
 
 
+@contextlib.contextmanager
+def _stdout_to(path: Path) -> Iterator[None]:
+    """Send the process's file descriptor 1 (C and Python stdout) to the end of `path` inside the block. Process-wide:
+    other threads' stdout goes there too meanwhile."""
+    sys.stdout.flush()
+    libc = ctypes.CDLL(None)
+    libc.fflush(None)
+    saved = os.dup(1)
+    try:
+        with open(path, "ab") as f:
+            os.dup2(f.fileno(), 1)
+        yield
+    finally:
+        libc.fflush(None)
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
 def decomposed_obj(path: str | os.PathLike[str], resolution: int = 100000) -> Path:
     """V-HACD convex decomposition of ``path``, computed once and cached as ``<cache>/vhacd/<sha1>.obj``."""
     data = Path(path).read_bytes()
@@ -94,9 +115,10 @@ def decomposed_obj(path: str | os.PathLike[str], resolution: int = 100000) -> Pa
     if not out.exists():
         tmp = out.with_name(f".{key}.{os.getpid()}.obj")
         log = out.with_name(f".{key}.{os.getpid()}.log")
-        p.vhacd(str(path), str(tmp), str(log), resolution=resolution)
+        with _stdout_to(log):  # V-HACD prints its parameters and progress (pages) to the C stdout
+            p.vhacd(str(path), str(tmp), str(log), resolution=resolution)
         if not tmp.exists() or tmp.stat().st_size == 0:
-            raise RuntimeError(f"V-HACD failed to decompose {path}")
+            raise RuntimeError(f"V-HACD failed to decompose {path} (its output: {log})")
         os.replace(tmp, out)
         log.unlink(missing_ok=True)
     return out
