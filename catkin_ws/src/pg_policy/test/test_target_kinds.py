@@ -29,3 +29,21 @@ def test_rows_per_kind_in_the_written_results(tmp_path):
     assert "By kind of target" in (tmp_path / "results.md").read_text()
     assert len(load_trials(tmp_path / "results.json")) == 13
     assert kind_lines(trials[-1:]) == []
+
+
+def test_a_run_folder_without_results_reads_its_journal(tmp_path, capsys):
+    import pytest
+
+    from pg_policy.evaluation.target_kinds import main
+
+    trials = [TrialRecord(scene="novel-10", seed=s, completed=True, grasps=1, target_grasps=1, termination="completed")
+              for s in range(1_000_000, 1_000_003)]
+    lines = [json.dumps({"run": {"policy": "x"}})] + [json.dumps({"trial": t.to_dict()}) for t in trials]
+    (tmp_path / "trials.jsonl").write_text("\n".join(lines) + "\n")
+    assert [t.seed for t in load_trials(tmp_path)] == [1_000_000, 1_000_001, 1_000_002]
+    assert main([str(tmp_path)]) == 0 and "(3 trials)" in capsys.readouterr().out
+    (tmp_path / "empty").mkdir()
+    assert main([str(tmp_path / "empty")]) == 2 and "no results.json or trials.jsonl" in capsys.readouterr().err
+    assert main([str(tmp_path / "none")]) == 2 and "No such file" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["--help"])

@@ -5,11 +5,13 @@ A trial's target is object 0 of its generated scene, which depends only on (scen
 them (pg_sim.world.scene_families, no physics), so records written before need nothing extra. Scenes that are not
 catalogue families (random-N, dense-N, fixed scenes) have no kind rows.
 
-``python -m pg_policy.evaluation.target_kinds results.json [...]`` prints the table of saved runs.
+``python -m pg_policy.evaluation.target_kinds RUN [...]`` prints the table of saved runs: RUN is a results.json or
+an output folder of `pushgrasp eval` (its results.json, or the trials.jsonl of a run still going or stopped).
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from collections.abc import Sequence
@@ -40,22 +42,42 @@ def by_kind(trials: Sequence[TrialRecord]) -> dict[tuple[str, str], dict[str, St
 
 
 def load_trials(path: Path) -> list[TrialRecord]:
-    """The trials of a results.json written by `pushgrasp eval`."""
+    """The trials of a results.json written by `pushgrasp eval`, or of an output folder (results.json, else the
+    finished trials in trials.jsonl). Raises FileNotFoundError when there is neither."""
+    from pg_policy.evaluation.journal import record_from_dict
+
+    path = Path(path)
+    if path.is_dir():
+        if (path / "results.json").is_file():
+            path = path / "results.json"
+        elif (path / "trials.jsonl").is_file():
+            lines = (json.loads(line) for line in (path / "trials.jsonl").read_text(encoding="utf-8").splitlines()
+                     if line.strip())
+            return [record_from_dict(d["trial"]) for d in lines if "trial" in d]
+        else:
+            raise FileNotFoundError(f"{path}: no results.json or trials.jsonl (not a `pushgrasp eval` output folder)")
     fields = set(TrialRecord.__dataclass_fields__)
-    doc = json.loads(Path(path).read_text(encoding="utf-8"))
+    doc = json.loads(path.read_text(encoding="utf-8"))
     return [TrialRecord(**{k: v for k, v in t.items() if k in fields}) for t in doc["trials"]]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    paths = list(argv if argv is not None else sys.argv[1:])
-    if not paths:
-        print("usage: python -m pg_policy.evaluation.target_kinds results.json [...]", file=sys.stderr)
-        return 2
+    parser = argparse.ArgumentParser(prog="python -m pg_policy.evaluation.target_kinds",
+                                     description="C, GS and MN per kind of target of saved `pushgrasp eval` runs.")
+    parser.add_argument("runs", nargs="+", type=Path,
+                        help="results.json files or `pushgrasp eval` output folders (a folder without results.json: "
+                             "the finished trials of its trials.jsonl)")
+    args = parser.parse_args(argv)
     from pg_policy.evaluation.report import kind_lines
 
-    for path in paths:
-        print(f"## {path}\n")
-        print("\n".join(kind_lines(load_trials(Path(path)))) or "(no catalogue-family trials)")
+    for path in args.runs:
+        try:
+            trials = load_trials(path)
+        except (OSError, ValueError, KeyError) as exc:
+            print(f"error: {path}: {exc}", file=sys.stderr)
+            return 2
+        print(f"## {path} ({len(trials)} trials)\n")
+        print("\n".join(kind_lines(trials)) or "(no catalogue-family trials)")
     return 0
 
 
