@@ -115,12 +115,14 @@ class SimStack(unittest.TestCase):
         else:
             self.assertEqual(state, GoalStatus.PREEMPTED, result.message)
             self.assertEqual(result.message, "cancelled")
-            # one feedback per executed decision; feedback and result travel on different topics, so the last
-            # feedback may arrive after the result
+            # one feedback per executed decision, in order; feedback and result travel on different topics, and
+            # actionlib's client drops a feedback that arrives after the result, so the last one may be missing
             settle = time.monotonic() + 10.0
             while len(feedback) < len(result.decisions) and time.monotonic() < settle:
                 time.sleep(0.1)
-            self.assertEqual(len(result.decisions), len(feedback))
+            self.assertIn(len(feedback), (len(result.decisions) - 1, len(result.decisions)))
+            for got, want in zip(feedback, result.decisions, strict=False):
+                self.assertEqual((got.last.primitive, got.last.row, got.last.col), (want.primitive, want.row, want.col))
         self.assertFalse(self.grasp(target="mauve").success)  # the node serves again
 
 
