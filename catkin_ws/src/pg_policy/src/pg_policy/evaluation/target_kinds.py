@@ -56,9 +56,8 @@ def load_trials(path: Path) -> list[TrialRecord]:
             return [record_from_dict(d["trial"]) for d in lines if "trial" in d]
         else:
             raise FileNotFoundError(f"{path}: no results.json or trials.jsonl (not a `pushgrasp eval` output folder)")
-    fields = set(TrialRecord.__dataclass_fields__)
     doc = json.loads(path.read_text(encoding="utf-8"))
-    return [TrialRecord(**{k: v for k, v in t.items() if k in fields}) for t in doc["trials"]]
+    return [record_from_dict(t) for t in doc["trials"]]
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -62,7 +62,8 @@ class LearnedPolicy(PolicyBase):
 
     def _q_maps(self, hm: Any, target: np.ndarray, ctx: RuleContext) -> dict[str, np.ndarray]:
         """{"grasp", "push"}: (R, H, W) float32 maps, full or (q_window) exact on each region's bounding box (grown by
-        WINDOW_MARGIN_CELLS for a primitive with filter rules) and -inf elsewhere (an empty region: all -inf)."""
+        the reach of that primitive's rules, WINDOW_MARGIN_CELLS where a filter's reach is unknown) and -inf
+        elsewhere (an empty region: all -inf)."""
         if not self.q_window:
             return self.nets.q_maps(hm, target)
         shape = (self.nets.num_rotations, *target.shape)
