@@ -176,8 +176,8 @@ def _with_stop_force(geometry, newtons):
 @pytest.mark.parametrize("newtons", [0.0, 10.0])
 def test_guarded_descent_stops_a_finger_on_an_object_instead_of_throwing_it(world, newtons):
     # One finger comes down on the cube's top face (jaw centre 4.5 cm beside the cube's, closing along x). Driven to
-    # the planned depth, the finger presses into the cube and the contact solver throws it several cm; a guarded
-    # descent stops on contact, the jaw closes above it and the cube stays within a few mm.
+    # the planned depth, the finger presses into the cube and the contact solver throws it (1.6 cm and 11 degrees
+    # here); a guarded descent stops on contact, the jaw closes above it and the cube stays within a few mm.
     with World(_with_stop_force(world.geometry, newtons)) as guarded:
         body = _one_cube(guarded, 0.0, 0.0, 0.0)
         height, r, c = _heights(guarded, 0.0, 0.0)
@@ -188,7 +188,7 @@ def test_guarded_descent_stops_a_finger_on_an_object_instead_of_throwing_it(worl
     if newtons > 0:
         assert moved < 0.015, moved
     else:
-        assert moved > 0.025, moved
+        assert moved > 0.01, moved
 
 
 def test_guarded_descent_still_grasps_a_cube_between_the_fingers(world):
@@ -198,3 +198,16 @@ def test_guarded_descent_still_grasps_a_cube_between_the_fingers(world):
         res = PrimitiveExecutor(guarded).grasp(0.05, -0.05, grasp_z(height, r, c, guarded.geometry.primitives),
                                                round(0.3 / STEP) * STEP)
     assert res.grasped and res.grasped_object == body, res.message
+
+
+@pytest.mark.parametrize("width", [0.012, 0.02, 0.03])
+def test_light_narrow_block_grasped_at_grasp_min_z(world, width):
+    """A 10 g block 40 mm tall and 12-30 mm wide, alone, grasped at its centre with the fingertips at grasp_min_z:
+    with the world's 50 solver iterations the squeezing pads slide over it (the jaw closes empty); every grasp
+    squeezes with SQUEEZE_SOLVER_ITERATIONS."""
+    block = ObjectSpec(shape="cube", size=(width, width, 0.04), color=resolve_color("green"),
+                       pose=(0.05, -0.03, 0.0205, 0, 0, 0), mesh=None, target=True, name="block", mass=0.01)
+    world.load_scene(SceneSpec(name="light-block", target="green", objects=(block,), family="test"))
+    x, y = world.object_poses()[world.target_id][:2]
+    res = PrimitiveExecutor(world).grasp(float(x), float(y), world.geometry.primitives.grasp_min_z, 0.0)
+    assert res.target_grasped, res.message

@@ -2,7 +2,7 @@
 
 Each object lies alone on the table; the jaw comes down at its centre with the grasp z of pg_core.action_geometry
 at that heightmap cell, closing along the object's yaw and across it (the better of the two counts, as a policy
-that tries both rotations). With the low-object rule (and the sim's firm squeeze below grasp_min_z) nearly all are
+that tries both rotations). With the low-object rule (and the sim's firm squeeze) nearly all are
 lifted; with DESIGN section 4's rule alone (fingertips at grasp_min_z = 12 mm, above them) none is.
 """
 

@@ -18,11 +18,11 @@ from pg_sim.robot.arm_driver import ArmDriver, MotionTimeout
 from pg_sim.world.transit import arm_links, transit
 from pg_sim.world.world import World
 
-# Contact solver iterations while the jaw closes and lifts in a grasp below primitives.grasp_min_z, where only the
-# low-object rule of pg_core.action_geometry sends it (thin flat things, pens, small parts: most 5-20 g). Two 40 N
-# finger motors squeezing so light an object do not converge in the world's 50 iterations: the pads sink into it
-# and slide over it (held-out thin, rod and small objects grasped at their centre: 15 of 40 lifted with 50, 39 with
-# 300). Grasps at grasp_min_z and above (blocks, household objects) keep the world's setting.
+# Contact solver iterations while the jaw closes and lifts in every grasp (the world keeps 50 otherwise). Two 40 N
+# finger motors squeezing a light object (5-20 g: thin flat things, pens, small parts) do not converge in 50
+# iterations: the pads sink into it and slide over it, whatever the grasp height (a lone 10 g cube 20 mm wide and
+# 40 mm tall, grasped at its centre with the fingertips at grasp_min_z, slips out with 50 and is lifted with 300;
+# held-out thin, rod and small objects at their centre: 15 of 40 lifted with 50, 39 with 300).
 SQUEEZE_SOLVER_ITERATIONS = 300
 # Longest opening of the fingers at home (s, ArmDriver.gripper's max_time): the objects' settling time after a
 # kinematic return home covers it too.
@@ -72,7 +72,7 @@ class PrimitiveExecutor:
         lift = target + [0, 0, pr.lift_height]
         self._check_workspace({"grasp point": target, "pre-grasp pose": pre, "lift pose": lift})
         plan = self._plan(arm, yaw, pre, [[self._above(pre), pre, target], [target, lift]])
-        return self._run(plan, "grasp", firm=z < pr.grasp_min_z)
+        return self._run(plan, "grasp")
 
     def push(self, x: float, y: float, z: float, yaw: float, arm: str = "") -> PrimitiveResult:
         pr = self.prims_
@@ -143,7 +143,7 @@ class PrimitiveExecutor:
         return _Plan(arm=arm, approach=[current, paths[0][0]], cartesian=paths, lengths=lengths)
 
     # -- execution ---------------------------------------------------------------------------------------------
-    def _run(self, plan: _Plan, primitive: str, firm: bool = False) -> PrimitiveResult:
+    def _run(self, plan: _Plan, primitive: str) -> PrimitiveResult:
         world, driver = self.world_, self.world_.arms[plan.arm]
         g, speed = self.geo_.gripper, self.prims_.cartesian_speed
         t0 = world.sim_time
@@ -157,7 +157,7 @@ class PrimitiveExecutor:
             guard = self._descent_guard(driver) if primitive == "grasp" else None
             reached = driver.follow(plan.cartesian[0], [length / speed for length in plan.lengths[0]], stop=guard)
             if primitive == "grasp":
-                with self._squeeze(firm):
+                with self._squeeze():
                     driver.gripper(0.0)
                     lift = plan.cartesian[1] if reached else self._lift_from_here(driver, plan)
                     driver.follow(lift, [length / speed for length in plan.lengths[1]])
@@ -183,12 +183,9 @@ class PrimitiveExecutor:
                                world.sim_time - t0, message)
 
     @contextmanager
-    def _squeeze(self, firm: bool) -> Iterator[None]:
-        """With `firm`, run the block with at least SQUEEZE_SOLVER_ITERATIONS contact solver iterations, then
-        restore the world's setting; without, leave the solver alone."""
-        if not firm:
-            yield
-            return
+    def _squeeze(self) -> Iterator[None]:
+        """Run the block with at least SQUEEZE_SOLVER_ITERATIONS contact solver iterations, then restore the world's
+        setting."""
         client = self.world_.client
         before = int(p.getPhysicsEngineParameters(physicsClientId=client)["numSolverIterations"])
         p.setPhysicsEngineParameter(numSolverIterations=max(before, SQUEEZE_SOLVER_ITERATIONS), physicsClientId=client)
