@@ -1,10 +1,11 @@
 """Record the shipped model's decisions on the first protocol trial of every protocol scene.
 
-Runs trial 0 (seed 1,000,000) of the 16 protocol scenes (DESIGN.md section 8) in the simulator with the shipped
-`lite` policy, one torch thread as in a protocol worker, and stores every observation the policy saw (colour,
-height and validity heightmaps) with the decision it took: `decisions.npz` (arrays `color_K`, `height_K`, `valid_K`
-for observation K) and `decisions.json` (per observation: scene, seed, step, target, resolution, bounds, and the
-decision). tests/test_golden.py replays the observations through the policy and demands the same decisions.
+Runs trial 0 (seed 1,000,000) of the 16 protocol scenes (DESIGN.md section 8) in the faithful simulation mode (every
+motion stepped, as tests/test_golden.py replays two of them) with the shipped `lite` policy, one torch thread as in a
+protocol worker, and stores every observation the policy saw (colour, height and validity heightmaps) with the
+decision it took: `decisions.npz` (arrays `color_K`, `height_K`, `valid_K` for observation K) and `decisions.json`
+(per observation: scene, seed, step, target, resolution, bounds, and the decision). tests/test_golden.py replays the
+observations through the policy and demands the same decisions.
 Re-record only for a deliberate policy change.
 
 usage: python tests/golden/record_golden.py [--out tests/golden]
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -72,7 +74,7 @@ def main() -> None:
     plan = EvalPlan(scenes=tuple(SCENES), trials=1, seed=SEED)
     for scene in SCENES:
         rec.scene = scene
-        t = run_fresh(SimEnv, rec, scene, SEED, plan)
+        t = run_fresh(partial(SimEnv, sim_mode="faithful"), rec, scene, SEED, plan)
         print(f"{scene}: {t.termination}, {t.n_actions} actions", flush=True)
     args.out.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(args.out / "decisions.npz", **arrays)

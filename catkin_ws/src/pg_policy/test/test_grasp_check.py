@@ -3,11 +3,12 @@ grasp/push choice."""
 
 import numpy as np
 import pytest
-from rule_testing import apply_rule
+from rule_testing import apply_rule, context
 
 from pg_core.geometry import load
 from pg_core.heightmap import Heightmap
 from pg_policy.decision.rules.grasp_check import JawGraspCheck
+from pg_policy.decision.rules.pipeline import RulePipeline
 
 GEO = load()
 H = W = 224
@@ -129,3 +130,34 @@ def test_the_batched_check_answers_as_the_one_by_one_check(walls):
         assert many.dtype == bool and many.tolist() == one
         answers += one
     assert 0 < sum(answers) < len(answers)  # both answers occur
+
+
+def test_a_forced_grasp_falls_back_to_the_best_centred_fit_when_boxed_in():
+    """Boxed in on all four sides, no grasp passes; when the push budget forces one, the fallback tests take the
+    best candidate on which the target fits between the pads on the pad-centred line (neighbours allowed in the
+    sweep) instead of Q_g's argmax, which here sits 1 cm off that line."""
+    hm, target = _scene((0, 20), (0, -20), (20, 0), (-20, 0))
+    q = np.zeros((16, H, W))
+    q[ALONG_X, C, C + 5] = 1.0  # the learned favourite: off the pad-centred line
+    q[ALONG_Y, C, C] = 0.5
+    check = JawGraspCheck.from_arg(GEO, "jaw-walls")
+    pipeline = RulePipeline([check])
+    ctx = context(hm, target)
+    res = pipeline.apply({"grasp": q, "push": np.zeros_like(q)}, ctx)
+    assert res.vetoed["grasp"] and res.push_instead
+    out, level = pipeline.forced_grasp(res.q["grasp"], ctx)
+    assert level == 1  # the footprint without walls still needs free sweeps; the centred fit passes
+    r, row, col = np.unravel_index(np.argmax(out), out.shape)
+    assert (row, col) != (C, C + 5) and out.max() == 1.0
+    assert check.passes_many(hm, target, np.array([r]), np.array([row]), np.array([col]), walls=False,
+                             clearance=False)[0]
+
+
+def test_a_forced_grasp_without_a_fitting_candidate_keeps_the_map():
+    hm, target = _scene((0, 20), (0, -20), (20, 0), (-20, 0))
+    q = np.full((16, H, W), -np.inf)
+    q[ALONG_X, C, C + 12] = 1.0  # only a cell 2.4 cm off the target's centre is finite: no fit there
+    ctx = context(hm, target)
+    pipeline = RulePipeline([JawGraspCheck.from_arg(GEO, "jaw-walls")])
+    out, level = pipeline.forced_grasp(q, ctx)
+    assert level is None and out is q

@@ -320,7 +320,8 @@ def test_the_landing_guard_moves_a_push_off_the_objects_and_keeps_the_decision(m
 
 def test_the_strict_check_pushes_when_no_grasp_passes_until_the_push_budget_is_spent(model_dir):
     # A target boxed in on all four sides: no jaw fits. "jaw" grasps anyway (threshold -1e9), "jaw-strict" pushes,
-    # and grasps once the push budget (1) is spent.
+    # and grasps once the push budget (1) is spent: at the best cell passing the check's fallback tests (the target
+    # fits between the pads, neighbours in the sweep allowed), or at Q_g's argmax with option forced_grasp off.
     obs = _scene([(0.0, 0.0, CUBE, CUBE, "green"), (0.05, 0.0, CUBE, CUBE, "blue"), (-0.05, 0.0, CUBE, CUBE, "red"),
                   (0.0, 0.05, CUBE, CUBE, "yellow"), (0.0, -0.05, CUBE, CUBE, "orange")])
     opts = {"grasp_threshold": -1e9, "push_budget": 1}
@@ -330,5 +331,9 @@ def test_the_strict_check_pushes_when_no_grasp_passes_until_the_push_budget_is_s
     strict.reset(0)
     first = strict.act(obs)
     assert first.primitive == "push" and "jaw check" in strict.last_note
-    assert strict.act(obs).primitive == "grasp" and strict.last_note == ""
+    assert strict.act(obs).primitive == "grasp" and strict.last_note.startswith("push budget spent")
+    plain = learned(model_dir, {**opts, "grasp_check": "jaw-strict", "forced_grasp": False})
+    plain.reset(0)
+    assert plain.act(obs).primitive == "push"
+    assert plain.act(obs).primitive == "grasp" and plain.last_note == ""
 

@@ -8,7 +8,9 @@ Per decision (the paper's loop at test time):
 3. rules: the model's rule pipeline adjusts the maps (pg_policy.decision.rules; first told what the last action did);
 4. decide: grasp if the masked max Q_g exceeds the threshold, else push (pg_policy.decision.decision.decide); a push
    budget B > 0 grasps after B pushes in a row whatever Q_g says (as the paper's push stage does in training), and a
-   vetoing grasp rule pushes instead within the budget.
+   vetoing grasp rule pushes instead within the budget. A grasp the budget forces while no candidate passes the
+   grasp rules goes to the best cell passing their weaker fallback tests (option forced_grasp, on by default;
+   RulePipeline.forced_grasp), else to Q_g's argmax.
 The threshold and budget come from the grasp model's metadata (thresholds.grasp_q, push_budget), the rule list from
 its `rules` (or the switches of older models); PolicyOptions overrides any of them (pg_policy.policies.options).
 """
@@ -55,6 +57,7 @@ class LearnedPolicy(PolicyBase):
         self.push_budget = int(budget)
         self.rules = make_pipeline(resolved_rules(model_rules(meta), opts.overrides), self.geometry)
         self.q_window = opts.get("q_window") is not False  # unset: on
+        self.forced_fallback = opts.get("forced_grasp") is not False  # unset: on
         self.pushes_in_row = 0
         self.last: Decision | None = None
         self.last_note = ""
@@ -105,7 +108,12 @@ class LearnedPolicy(PolicyBase):
         threshold, self.last_note = (-math.inf if spent else self.threshold), ""
         if outcome.push_instead and not spent:
             threshold, self.last_note = math.inf, outcome.note
-        d = decide(outcome.q["grasp"], outcome.q["push"], target, hm, self.prims, threshold,
+        q_grasp = outcome.q["grasp"]
+        if spent and self.forced_fallback and outcome.vetoed["grasp"]:
+            q_grasp, level = self.rules.forced_grasp(q_grasp, ctx)
+            if level is not None:
+                self.last_note = f"push budget spent: grasp passing fallback test {level + 1} of the grasp rules"
+        d = decide(q_grasp, outcome.q["push"], target, hm, self.prims, threshold,
                    push_mask=ctx.push_region, grasp_mask=ctx.grasp_region)  # the regions the rules saw
         self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0
         self.last = d

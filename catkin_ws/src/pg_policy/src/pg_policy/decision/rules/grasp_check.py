@@ -123,8 +123,12 @@ class JawGraspCheck(Rule):
         return float(min(low, high))
 
     def passes_many(self, hm: Heightmap, target: np.ndarray, rotations: np.ndarray, rows: np.ndarray,
-                    cols: np.ndarray, cells_others: tuple | None = None) -> np.ndarray:
-        """`passes` for K candidates at once: (K,) bool, candidate i being (rotations[i], rows[i], cols[i])."""
+                    cols: np.ndarray, cells_others: tuple | None = None, walls: bool | None = None,
+                    clearance: bool = True) -> np.ndarray:
+        """`passes` for K candidates at once: (K,) bool, candidate i being (rotations[i], rows[i], cols[i]).
+        `walls` (None: the variant's) and `clearance` (False: a neighbour in a finger's sweep is allowed) relax the
+        test for the forced-grasp fallback (`fallback_tests`)."""
+        walls = self.walls if walls is None else walls
         cells, others = cells_others or self.jaw.around(hm, target)
         t = target[cells.slice].reshape(-1)
         o = others[cells.slice].reshape(-1)
@@ -135,11 +139,11 @@ class JawGraspCheck(Rule):
         centres = np.array([pixel_to_world(r, c, hm.bounds, hm.resolution) for r, c in cells_rc],
                            dtype=np.float64).reshape(-1, 2)
         zg = np.array([grasp_z(hm.height, r, c, self.prims) for r, c in cells_rc], dtype=np.float64)
-        clearance, c2, _ = self.jaw.grasp_fit_many(t_xy, o_xy, o_h, centres, yaws, zg)
-        ok = clearance >= 0  # NaN (no fit) compares False
+        clear, c2, _ = self.jaw.grasp_fit_many(t_xy, o_xy, o_h, centres, yaws, zg)
+        ok = clear >= 0 if clearance else ~np.isnan(clear)  # NaN: the target does not fit between the pads
         u = np.stack([np.cos(yaws), np.sin(yaws)], axis=1)
         ok &= ~(np.abs(((c2 - centres)[:, None, :] @ u[:, :, None])[:, 0, 0]) > self.centre_tol)
-        if self.walls:
+        if walls:
             for i in np.flatnonzero(ok):
                 ok[i] = self.wall_height(t_xy, t_h, c2[i], float(yaws[i])) >= zg[i] + self.wall_tol
         return ok
@@ -150,3 +154,15 @@ class JawGraspCheck(Rule):
         hm, target = ctx.heightmap, ctx.target
         context = self.jaw.around(hm, target)
         return BatchTest(lambda r, row, col: self.passes_many(hm, target, r, row, col, context))
+
+    def fallback_tests(self, ctx: RuleContext) -> list[CandidateTest]:
+        """For a grasp the push budget forces when no candidate passes: first the footprint test without walls,
+        then the target fitting between the pads on the pad-centred line with neighbours allowed in a finger's
+        sweep (Q_g's argmax only when neither passes)."""
+        if not ctx.visible or not ctx.target.any():
+            return []
+        hm, target = ctx.heightmap, ctx.target
+        context = self.jaw.around(hm, target)
+        return [BatchTest(lambda r, row, col: self.passes_many(hm, target, r, row, col, context, walls=False)),
+                BatchTest(lambda r, row, col: self.passes_many(hm, target, r, row, col, context, walls=False,
+                                                               clearance=False))]

@@ -4,7 +4,8 @@ For each Q map (grasp, then push) the pipeline applies, in the configured order,
 map, then re-ranks the map once by the conjunction of the rules' candidate tests (pg_policy.decision.rerank): the
 best-valued candidate inside the primitive's region that passes every test takes the map's best value, so the
 grasp-or-push decision (masked max vs the threshold) is unchanged by the tests; when none of the best `top_k`
-passes, the map is left as it was and a vetoing grasp rule asks the policy to push instead.
+passes, the map is left as it was and a vetoing grasp rule asks the policy to push instead. When the policy must
+grasp all the same (its push budget is spent), `forced_grasp` re-ranks Q_g by the rules' weaker fallback tests.
 """
 
 from __future__ import annotations
@@ -125,6 +126,25 @@ class RulePipeline:
                     push_instead, note = True, vetoers[0].veto_note
             out[primitive] = m
         return RuleOutcome(out, shown, push_instead, note, rejected, vetoed)
+
+    def forced_grasp(self, q: np.ndarray, ctx: RuleContext) -> tuple[np.ndarray, int | None]:
+        """(Q_g re-ranked, the fallback level that passed) for a grasp the push budget forces while no candidate of
+        the (R, H, W) map `q` (as `apply` left it) passes the grasp rules' tests: level i asks every grasp rule's
+        i-th fallback test (pg_policy.decision.rules.rule.Rule.fallback_tests; its last one past its end, its
+        candidate_test when it has none) of the best FORCED_TOP_K candidates of the grasp region, and the first
+        level with a passing candidate re-ranks the map as `apply` does. (q unchanged, None) when no level passes
+        or no rule has a fallback."""
+        per_rule = [(r.fallback_tests(ctx), r.candidate_test(ctx)) for r in self.rules if r.primitive == "grasp"]
+        for level in range(max((len(fb) for fb, _ in per_rule), default=0)):
+            tests = [fb[min(level, len(fb) - 1)] if fb else ct for fb, ct in per_rule]
+            tests = [t for t in tests if t is not None]
+            m, rank = rerank(q, ctx.grasp_region, conjunction(tests), FORCED_TOP_K)
+            if rank is not None:
+                return m, level
+        return q, None
+
+
+FORCED_TOP_K = 1000  # candidates examined per fallback level of a forced grasp
 
 
 def _timed_adjust(rule: Rule, m: np.ndarray, ctx: RuleContext, timings: dict[str, float]) -> np.ndarray:

@@ -6,6 +6,7 @@ heightmap's cells) in one of two ways, in the style of grid_map's filter chains 
 - `candidate_test(ctx)`: return a yes/no test of a candidate (rotation, row, col), or None when the rule has nothing
   to say in this context. The pipeline (pg_policy.decision.rules.pipeline) walks the map's best cells inside the
   primitive's region and keeps the first candidate that passes the tests of every rule on that map.
+When the push budget forces a grasp and no candidate passes, `fallback_tests(ctx)` offers weaker tests in turn.
 Within a trial, `observe(last, before, after)` tells a rule what the previous action did (its decision and the
 contexts before and after it); `reset()` starts a new trial. A grasp rule with `vetoes_grasp` asks the policy to push
 instead when no grasp candidate passes (within the push budget).
@@ -104,6 +105,12 @@ class Rule:
     def candidate_test(self, ctx: RuleContext) -> CandidateTest | None:
         """A yes/no test of a candidate (rotation, row, col) in this context, or None (no opinion)."""
         return None
+
+    def fallback_tests(self, ctx: RuleContext) -> list[CandidateTest]:
+        """Weaker candidate tests, strongest first, for a grasp that the push budget forces while the grasp map's
+        tests pass no candidate (pg_policy.decision.rules.pipeline.RulePipeline.forced_grasp); [] (the default):
+        `candidate_test` applies unchanged."""
+        return []
 
     def reach(self) -> int | None:
         """How far (cells) from a cell `adjust` reads the map to compute that cell's value: 0 for rules that do not
