@@ -337,3 +337,18 @@ def test_the_strict_check_pushes_when_no_grasp_passes_until_the_push_budget_is_s
     assert plain.act(obs).primitive == "push"
     assert plain.act(obs).primitive == "grasp" and plain.last_note == ""
 
+
+
+def test_a_target_of_few_cells_is_the_goal_from_min_target_cells(model_dir):
+    # a green sliver of 4 x 4 cells beside a blue block: below the default 25 cells the policy looks at every object
+    # (goal-agnostic); with min_target_cells 5 it acts within the push region of the sliver (5 cm), never at the
+    # block 14 cm away
+    from pg_policy.policies.policy import goal_or_all
+
+    obs = _scene([(0.0, 0.0, 0.008, 0.008, "green"), (0.1, 0.1, CUBE, CUBE, "blue")])
+    assert int(observed_target(obs).sum()) == 16
+    assert not goal_or_all(obs)[1] and goal_or_all(obs, 5)[1]
+    d = learned(model_dir, {"min_target_cells": 5}).act(obs)
+    assert math.hypot(d.x, d.y) <= 0.06, d
+    with pytest.raises(ValueError, match="min_target_cells"):
+        learned(model_dir, {"min_target_cells": 0})

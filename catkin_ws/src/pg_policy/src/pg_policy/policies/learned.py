@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from pg_core.target_mask import MIN_VISIBLE_CELLS
 from pg_policy.decision.decision import Decision, decide, grasp_region, push_region
 from pg_policy.decision.rules.registry import make_pipeline, model_rules
 from pg_policy.decision.rules.rule import RuleContext
@@ -58,6 +59,10 @@ class LearnedPolicy(PolicyBase):
         self.rules = make_pipeline(resolved_rules(model_rules(meta), opts.overrides), self.geometry)
         self.q_window = opts.get("q_window") is not False  # unset: on
         self.forced_fallback = opts.get("forced_grasp") is not False  # unset: on
+        min_cells = opts.get("min_target_cells")
+        self.min_target_cells = MIN_VISIBLE_CELLS if min_cells is None else int(min_cells)
+        if self.min_target_cells < 1:
+            raise ValueError(f"min_target_cells must be >= 1, got {self.min_target_cells}")
         self.pushes_in_row = 0
         self.last: Decision | None = None
         self.last_note = ""
@@ -95,7 +100,7 @@ class LearnedPolicy(PolicyBase):
     def act(self, obs: Any) -> Decision:
         t0 = time.perf_counter()
         hm = obs.heightmap
-        target, visible = goal_or_all(obs)
+        target, visible = goal_or_all(obs, self.min_target_cells)
         ctx = RuleContext(hm, target, visible, grasp_region(target, hm.resolution), push_region(target, hm.resolution))
         self.rules.observe(self.last, ctx)
         t1 = time.perf_counter()

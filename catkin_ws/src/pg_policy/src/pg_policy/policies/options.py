@@ -27,6 +27,8 @@ GENERAL = (
     PolicyOption("rules", "str", "learned: the ordered test-time rule list, comma-separated name[:arg] entries (e.g. "
                  "grasp_filter:min3,failed_grasps:0.01,grasp_check:jaw-walls,push_landing,edge_guard); none: no "
                  "rules", metavar="LIST"),
+    PolicyOption("min_target_cells", "int", "learned: the target counts as visible (goal-conditioned maps and rules) "
+                 "from this many detected cells; fewer: goal-agnostic over every object (default 25)", metavar="N"),
     PolicyOption("forced_grasp", "switch", "learned: when the push budget forces a grasp that no candidate passes "
                  "the grasp rules for, grasp the best cell passing their weaker fallback tests; off: Q_g's argmax"),
     PolicyOption("q_window", "switch", "learned: compute Q only around the target's grasp and push regions, exactly "

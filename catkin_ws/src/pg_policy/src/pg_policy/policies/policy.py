@@ -63,11 +63,11 @@ def observed_target(obs: Any) -> np.ndarray:
     return target_mask(hm.color, hm.valid, obs.target)
 
 
-def goal_or_all(obs: Any) -> tuple[np.ndarray, bool]:
-    """(the target mask, True) when the target is visible; else (every object cell, False): goal-agnostic, to
-    uncover it."""
+def goal_or_all(obs: Any, min_cells: int = MIN_VISIBLE_CELLS) -> tuple[np.ndarray, bool]:
+    """(the target mask, True) when the target is visible (at least `min_cells` cells); else (every object cell,
+    False): goal-agnostic, to uncover it."""
     target = observed_target(obs)
-    if target.sum() >= MIN_VISIBLE_CELLS:
+    if target.sum() >= min_cells:
         return target, True
     objects = obs.heightmap.height > OBJECT_HEIGHT_M
     return (objects if objects.any() else np.ones_like(target)), False
