@@ -139,3 +139,24 @@ def test_the_policy_bench_times_the_shipped_decision_by_stage():
     parts = sum(float(np.mean(v)) for v in pb.stages_s.values())
     assert parts <= float(np.mean(pb.total_s))  # the stages account for no more than the whole call
     assert "Stage" in pb.report() and "decisions stable across calls: yes" in pb.report()
+
+
+def test_the_cli_and_the_bench_on_saved_cases_need_no_simulator():
+    """A GPU machine without PyBullet runs `pushgrasp bench --cases`: building the CLI's parser and importing the
+    bench, the scene model and the scene families must not import pybullet or pybullet_data."""
+    import subprocess
+    import sys
+
+    code = """
+import importlib.abc, sys
+class Block(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path, target=None):
+        if name.split(".")[0] in ("pybullet", "pybullet_data"):
+            raise ModuleNotFoundError(f"No module named {name!r}")
+sys.meta_path.insert(0, Block())
+from pg_policy.cli.main import build_parser
+build_parser()
+import pg_policy.evaluation.bench, pg_sim.scenes.scene, pg_sim.world.scene_families, pg_sim.scenes.vpg_import
+"""
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr[-2000:]

@@ -37,7 +37,6 @@ from pg_policy.models.device import check_device
 from pg_policy.models.inference import PolicyNets, Window, target_window
 from pg_policy.models.nets.registry import BACKBONES
 from pg_sim.scenes.scene import list_scenes
-from pg_sim.world.scene_source import make_world_with_scene
 
 VARIANTS = ("lite", "lite-os8", "densenet121")
 APPROX_MARGIN_M = 0.1  # window context for backbones without an exact margin
@@ -58,6 +57,7 @@ def scene_cases(scenes: Sequence[str] | None = None) -> list[Case]:
     """Settled shipped scenes (default: all of `pg_sim.scenes.scene.list_scenes()`) -> cases with ground-truth masks.
 
     Raises ValueError for an unknown scene or a scene whose target is not visible in the heightmap."""
+    from pg_sim.world.scene_source import make_world_with_scene  # here: `--cases` runs without the simulator
 
     cases = []
     for name in scenes or list_scenes():

@@ -51,7 +51,7 @@ import numpy as np
 from pg_policy.evaluation.errors import ERROR, mark_error
 from pg_policy.target_loop.limits import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
 from pg_sim.scenes.scene import find_scene, list_scenes, load_scene
-from pg_sim.world.scene_source import GENERATED
+from pg_sim.world.scene_families import GENERATED
 from pg_sim.world.sim_mode import DEFAULT_SIM_MODE
 
 MIN_EVAL_SEED = 1_000_000

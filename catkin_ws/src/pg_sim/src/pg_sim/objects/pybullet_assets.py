@@ -10,8 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-import pybullet_data
-
 BLOB_COUNT = 1000  # random_urdfs/000 .. 999
 BLOB_SCALE = 0.01  # their .obj units -> metres: 0.03-0.12 m objects
 # blobs whose .obj pybullet_data ships unusable: random_urdfs/168/168.obj has "nan" for every vertex. The catalogue
@@ -51,6 +49,8 @@ NAMED: dict[str, NamedMesh] = {
 
 def data_path(relative: str) -> Path:
     """Absolute path of a pybullet_data file; raises FileNotFoundError when the installed package lacks it."""
+    import pybullet_data  # here, so that the catalogue's ids and splits load on a machine without the simulator
+
     path = Path(pybullet_data.getDataPath()) / relative
     if not path.is_file():
         raise FileNotFoundError(f"pybullet_data has no {relative} (looked in {pybullet_data.getDataPath()})")

@@ -18,7 +18,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pybullet as p
 
 from pg_sim.scenes.shapes import CONVEX_VOLUME_RATIO, MESH_DENSITY, MESH_MASS_RANGE, Vec3, cache_dir
 
@@ -115,6 +114,8 @@ def decomposed_obj(path: str | os.PathLike[str], resolution: int = 100000) -> Pa
     if not out.exists():
         tmp = out.with_name(f".{key}.{os.getpid()}.obj")
         log = out.with_name(f".{key}.{os.getpid()}.log")
+        import pybullet as p  # here, so that scene files load on a machine without the simulator
+
         with _stdout_to(log):  # V-HACD prints its parameters and progress (pages) to the C stdout
             p.vhacd(str(path), str(tmp), str(log), resolution=resolution)
         if not tmp.exists() or tmp.stat().st_size == 0:
@@ -157,6 +158,8 @@ def build_mesh(
     else:
         convex = mesh.objects > 1 or is_convex(mesh)  # several objects = already decomposed into convex pieces
         col_file = path if convex else decomposed_obj(path)
+    import pybullet as p  # here, so that scene files load on a machine without the simulator
+
     col = p.createCollisionShape(
         p.GEOM_MESH, fileName=str(col_file), meshScale=list(s), collisionFramePosition=list(centre),
         physicsClientId=client,

@@ -17,8 +17,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-import pybullet_data
-
 from pg_sim.scenes.scene import SceneError, find_scene, scene_dirs
 from pg_sim.scenes.shapes import cache_dir
 from pg_sim.scenes.short_repr import short
@@ -53,6 +51,8 @@ class AllowedFolders:
     @classmethod
     def default(cls, extra: Sequence[str | os.PathLike[str]] = ()) -> AllowedFolders:
         """The default folders (module docstring) plus ``extra`` for both scenes and meshes."""
+        import pybullet_data  # here, so that scene files load on a machine without the simulator
+
         scenes = _resolved([*scene_dirs(), user_scene_dir(), *extra])
         cache = cache_dir("objects").parent
         return cls(scenes, _resolved([*scenes, cache, pybullet_data.getDataPath()]))

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pybullet as p
+from scipy.spatial.transform import Rotation
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -88,7 +88,7 @@ class Part:
 
     def points(self) -> np.ndarray:
         """Corner points (N, 3) in the shape frame."""
-        rot = np.array(p.getMatrixFromQuaternion(self.quat)).reshape(3, 3)
+        rot = Rotation.from_quat(self.quat).as_matrix()  # quat (x, y, z, w), as PyBullet's
         return self.local_points() @ rot.T + np.asarray(self.pos)
 
 
@@ -158,6 +158,8 @@ def _prism_file(poly: Polygon, half_z: float) -> str:
 
 def _create(client: int, parts: Sequence[Part]) -> tuple[int, int]:
     """Collision and visual shape ids for ``parts`` (compound when several). Raises RuntimeError if PyBullet fails."""
+    import pybullet as p  # here, so that scene files and shapes load on a machine without the simulator
+
     if len(parts) > MAX_PARTS:
         raise ValueError(f"a shape may have at most {MAX_PARTS} parts in PyBullet, got {len(parts)}")
     types, radii, halves, lengths, col_files, vis_files = [], [], [], [], [], []

@@ -7,12 +7,15 @@ the target, has the target colour; the others take the remaining palette colours
 from __future__ import annotations
 
 import zlib
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pg_sim.scenes.colors import COLORS, resolve_color
 from pg_sim.scenes.scene import ObjectSpec, SceneSpec
-from pg_sim.world.world import World
+
+if TYPE_CHECKING:  # a type only: scene sampling needs no simulator
+    from pg_sim.world.world import World
 
 BLOCKS = ("cube", "rect", "triangle", "arch", "cylinder", "half_cube", "half_cylinder")
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 import re
 import zlib
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -30,7 +31,9 @@ from pg_sim.objects.catalog import KINDS, object_ids, object_spec
 from pg_sim.scenes.colors import COLORS, resolve_color
 from pg_sim.scenes.scene import ObjectSpec, SceneSpec
 from pg_sim.world.random_scene import BLOCKS, drop_scene, sample_drops
-from pg_sim.world.world import World
+
+if TYPE_CHECKING:  # a type only: scene sampling needs no simulator
+    from pg_sim.world.world import World
 
 MAX_OBJECTS = 40  # largest generated scene
 
