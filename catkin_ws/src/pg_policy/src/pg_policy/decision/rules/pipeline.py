@@ -20,6 +20,8 @@ import numpy as np
 from pg_policy.decision.rerank import rerank
 from pg_policy.decision.rules.rule import BatchTest, CandidateTest, Rule, RuleContext
 
+FORCED_TOP_K = 1000  # candidates examined per fallback level of a forced grasp
+
 
 @dataclass(frozen=True)
 class RuleOutcome:
@@ -134,7 +136,8 @@ class RulePipeline:
         candidate_test when it has none) of the best FORCED_TOP_K candidates of the grasp region, and the first
         level with a passing candidate re-ranks the map as `apply` does. (q unchanged, None) when no level passes
         or no rule has a fallback."""
-        per_rule = [(r.fallback_tests(ctx), r.candidate_test(ctx)) for r in self.rules if r.primitive == "grasp"]
+        per_rule = [(fb, None if fb else r.candidate_test(ctx))  # a rule's own test only where it has no fallback
+                    for r in self.rules if r.primitive == "grasp" for fb in [r.fallback_tests(ctx)]]
         for level in range(max((len(fb) for fb, _ in per_rule), default=0)):
             tests = [fb[min(level, len(fb) - 1)] if fb else ct for fb, ct in per_rule]
             tests = [t for t in tests if t is not None]
@@ -142,9 +145,6 @@ class RulePipeline:
             if rank is not None:
                 return m, level
         return q, None
-
-
-FORCED_TOP_K = 1000  # candidates examined per fallback level of a forced grasp
 
 
 def _timed_adjust(rule: Rule, m: np.ndarray, ctx: RuleContext, timings: dict[str, float]) -> np.ndarray:
