@@ -352,3 +352,17 @@ def test_a_target_of_few_cells_is_the_goal_from_min_target_cells(model_dir):
     assert math.hypot(d.x, d.y) <= 0.06, d
     with pytest.raises(ValueError, match="min_target_cells"):
         learned(model_dir, {"min_target_cells": 0})
+
+
+def test_a_hidden_target_is_pushed_for_until_hidden_pushes_then_grasped(model_dir):
+    # no green cell: goal-agnostic; a threshold below every Q_g grasps at once unless hidden_pushes asks for pushes
+    obs = _scene([(0.0, 0.0, CUBE, CUBE, "blue"), (0.1, 0.1, CUBE, CUBE, "red")])
+    eager = {"grasp_threshold": -1e9, "push_budget": 2}
+    assert learned(model_dir, eager).act(obs).primitive == "grasp"
+    pol = learned(model_dir, {**eager, "hidden_pushes": 4})  # beyond the push budget while hidden
+    assert [pol.act(obs).primitive for _ in range(5)] == ["push"] * 4 + ["grasp"]
+    assert pol.act(obs).primitive == "push" and pol.last_note == "target hidden: push"
+    visible = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (-0.1, 0.1, CUBE, CUBE, "blue")])
+    assert learned(model_dir, {**eager, "hidden_pushes": 4}).act(visible).primitive == "grasp"
+    with pytest.raises(ValueError, match="hidden_pushes"):
+        learned(model_dir, {"hidden_pushes": -1})

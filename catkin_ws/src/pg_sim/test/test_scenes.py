@@ -61,3 +61,18 @@ def test_same_seed_same_scene_different_seed_different_scene(world):
     np.testing.assert_allclose(pa, pb, atol=1e-9)
     assert [o.shape for o in a.objects] == [o.shape for o in b.objects]
     assert not np.allclose(pa[:, :2], pc[:, :2], atol=1e-3)
+
+
+def test_target_outside_after_the_retries_is_dropped_again_others_may_stay_out(world):
+    """With no scene retries, a target and a neighbour dropped beyond the workspace edge: the target is re-dropped
+    until it rests inside (the protocol's reset); the neighbour stays where it fell."""
+    drops = sample_drops(2, seed=5)
+    out_x = world.geometry.workspace.x[1] + 0.08
+    moved = tuple(o.__class__(**{**o.__dict__, "pose": (out_x, 0.0, 0.05, 0.0, 0.0, 0.0)}) for o in drops.objects)
+    scene = drop_scene(world, drops.__class__(**{**drops.__dict__, "objects": moved}), retries=0)
+    ws = world.geometry.workspace
+    poses = world.object_poses()
+    target, other = world.target_id, next(b for b in poses if b != world.target_id)
+    assert ws.x[0] < poses[target][0] < ws.x[1] and ws.y[0] < poses[target][1] < ws.y[1]
+    assert poses[other][0] > ws.x[1]
+    assert sum(o.target for o in scene.objects) == 1

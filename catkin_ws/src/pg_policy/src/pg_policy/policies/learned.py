@@ -63,6 +63,10 @@ class LearnedPolicy(PolicyBase):
         self.min_target_cells = MIN_VISIBLE_CELLS if min_cells is None else int(min_cells)
         if self.min_target_cells < 1:
             raise ValueError(f"min_target_cells must be >= 1, got {self.min_target_cells}")
+        hidden = opts.get("hidden_pushes")
+        self.hidden_pushes = 0 if hidden is None else int(hidden)
+        if self.hidden_pushes < 0:
+            raise ValueError(f"hidden_pushes must be >= 0 (0 = off), got {self.hidden_pushes}")
         self.pushes_in_row = 0
         self.last: Decision | None = None
         self.last_note = ""
@@ -113,6 +117,8 @@ class LearnedPolicy(PolicyBase):
         threshold, self.last_note = (-math.inf if spent else self.threshold), ""
         if outcome.push_instead and not spent:
             threshold, self.last_note = math.inf, outcome.note
+        if not visible and self.pushes_in_row < self.hidden_pushes:
+            threshold, self.last_note = math.inf, "target hidden: push"
         q_grasp = outcome.q["grasp"]
         if spent and self.forced_fallback and outcome.vetoed["grasp"]:
             q_grasp, level = self.rules.forced_grasp(q_grasp, ctx)

@@ -17,6 +17,8 @@ from pg_sim.scenes.scene import ObjectSpec, SceneSpec
 if TYPE_CHECKING:  # a type only: scene sampling needs no simulator
     from pg_sim.world.world import World
 
+TARGET_RETRIES = 8  # extra re-drops of a target still outside the workspace after the scene's own retries
+
 BLOCKS = ("cube", "rect", "triangle", "arch", "cylinder", "half_cube", "half_cylinder")
 
 
@@ -55,9 +57,15 @@ def drop_scene(world: World, drops: SceneSpec, settle_each: float = 0.25, retrie
     world.scene = drops
     world.settle()
     ws = world.geometry.workspace
-    for _ in range(retries):
-        out = [b for b, pose in world.object_poses().items()
-               if not (ws.x[0] + 0.01 < pose[0] < ws.x[1] - 0.01 and ws.y[0] + 0.01 < pose[1] < ws.y[1] - 0.01)]
+
+    def outside() -> list[int]:
+        return [b for b, pose in world.object_poses().items()
+                if not (ws.x[0] + 0.01 < pose[0] < ws.x[1] - 0.01 and ws.y[0] + 0.01 < pose[1] < ws.y[1] - 0.01)]
+
+    for attempt in range(retries + TARGET_RETRIES):
+        out = outside()
+        if attempt >= retries:  # the protocol needs the target inside; other escapees may stay out
+            out = [b for b in out if b == world.target_id]
         if not out:
             break
         for body in out:
