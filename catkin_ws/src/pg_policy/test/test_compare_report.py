@@ -76,3 +76,14 @@ def test_held_out_families_have_their_own_tables_targets_and_pairing(tmp_path):
     assert "- novel-10: C 90.0 % < 95 %" in text and "novel-packed-8:" not in text.split("### Targets")[1]
     assert "| novel | b | 10 | 3 | 0 | 0.25 |" in text  # a completed trials 1-3 that b did not
     assert main(["compare", f"a={tmp_path / 'a'}", "--out", str(tmp_path / "r.md")]) == 0
+
+
+def test_training_families_are_compared_without_targets(tmp_path):
+    assert family_of("train-novel-packed-8") == family_of("train-novel-10") == "training"
+    a = [_trial("train-novel-10", i, True, 1, 1, 0) for i in range(6)]
+    b = [_trial("train-novel-10", i, i > 1, 1, int(i > 1), 0) for i in range(6)]
+    _write(tmp_path / "a", a)
+    _write(tmp_path / "b", b)
+    text = markdown([load_policy("a", tmp_path / "a"), load_policy("b", tmp_path / "b")], check="a")
+    assert "### training" in text and "train-novel-10" not in text.split("### Targets")[1]
+    assert "| training | b | 6 | 2 | 0 |" in text

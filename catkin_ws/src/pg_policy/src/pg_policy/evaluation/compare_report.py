@@ -4,7 +4,8 @@ paper's published figures (DESIGN.md section 8) beside ours and the project's ta
 Input: per policy, a folder searched recursively for results.json files (`scripts/eval_protocol.sh` writes one per
 family); a scene found twice for one policy is an error. Families (FAMILIES, matched by scene-name prefix): the
 protocol's packed (packed/case01-09), household (household/case11-14) and random (random-N), and the held-out object
-families novel-packed (novel-packed-N), novel (novel-N) and mixed (mixed-N). Family rows pool every trial of the
+families novel-packed (novel-packed-N), novel (novel-N) and mixed (mixed-N), and the training families (train-*,
+pooled in one family, no targets: for choosing on training seeds). Family rows pool every trial of the
 family (pg_policy.evaluation.trials.summarize).
 C and GS in percent, MN in pushes per completed trial, each mean ± standard error over trials. Trials that ended in an
 error (termination "error") are failures in C like any other; the policy table counts them.
@@ -48,6 +49,7 @@ FAMILY_SPECS = {
     "novel-packed": Family("novel-packed-", NO_PAPER, 0.90, None),
     "novel": Family("novel-", NO_PAPER, 0.95, 0.85),
     "mixed": Family("mixed-", NO_PAPER, None, None),
+    "training": Family("train-", "training families (training objects, seeds below 1,000,000): no targets", None, None),
 }
 FAMILIES = tuple(FAMILY_SPECS)
 
