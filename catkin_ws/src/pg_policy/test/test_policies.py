@@ -12,6 +12,7 @@ from pg_core.geometry import load
 from pg_core.heightmap import Heightmap, world_to_pixel
 from pg_core.palette import PALETTE
 from pg_policy.policies.heuristic import HeuristicPolicy
+from pg_policy.policies.learned import HIDDEN_PUSHES
 from pg_policy.policies.model_files import SHIPPED_MODELS, resolve_models
 from pg_policy.policies.policy import Policy, PolicyOptions, observed_target
 from pg_policy.policies.registry import UnknownPolicyError, make_policy, policies
@@ -358,7 +359,9 @@ def test_a_hidden_target_is_pushed_for_until_hidden_pushes_then_grasped(model_di
     # no green cell: goal-agnostic; a threshold below every Q_g grasps at once unless hidden_pushes asks for pushes
     obs = _scene([(0.0, 0.0, CUBE, CUBE, "blue"), (0.1, 0.1, CUBE, CUBE, "red")])
     eager = {"grasp_threshold": -1e9, "push_budget": 2}
-    assert learned(model_dir, eager).act(obs).primitive == "grasp"
+    assert learned(model_dir, {**eager, "hidden_pushes": 0}).act(obs).primitive == "grasp"
+    default = learned(model_dir, eager)
+    assert default.hidden_pushes == HIDDEN_PUSHES and default.act(obs).primitive == "push"
     pol = learned(model_dir, {**eager, "hidden_pushes": 4})  # beyond the push budget while hidden
     assert [pol.act(obs).primitive for _ in range(5)] == ["push"] * 4 + ["grasp"]
     assert pol.act(obs).primitive == "push" and pol.last_note == "target hidden: push"

@@ -8,9 +8,10 @@ Per decision (the paper's loop at test time):
 3. rules: the model's rule pipeline adjusts the maps (pg_policy.decision.rules; first told what the last action did);
 4. decide: grasp if the masked max Q_g exceeds the threshold, else push (pg_policy.decision.decision.decide); a push
    budget B > 0 grasps after B pushes in a row whatever Q_g says (as the paper's push stage does in training), and a
-   vetoing grasp rule pushes instead within the budget. A grasp the budget forces while no candidate passes the
-   grasp rules goes to the best cell passing their weaker fallback tests (option forced_grasp, on by default;
-   RulePipeline.forced_grasp), else to Q_g's argmax.
+   vetoing grasp rule pushes instead within the budget; while the target is hidden it pushes until HIDDEN_PUSHES
+   pushes in a row (option hidden_pushes), since every neighbour a grasp lifts counts as a failed grasp. A grasp
+   the budget forces while no candidate passes the grasp rules goes to the best cell passing their weaker fallback
+   tests (option forced_grasp, on by default; RulePipeline.forced_grasp), else to Q_g's argmax.
 The threshold and budget come from the grasp model's metadata (thresholds.grasp_q, push_budget), the rule list from
 its `rules` (or the switches of older models); PolicyOptions overrides any of them (pg_policy.policies.options).
 """
@@ -36,6 +37,9 @@ from pg_policy.policies.policy import PolicyBase, PolicyOptions, goal_or_all
 # around a cell; the shipped min3 reads 1), this many for a filter rule whose reach is unknown. A primitive without
 # filter rules needs its region only.
 WINDOW_MARGIN_CELLS = 4
+# Pushes in a row while the target is hidden before a goal-agnostic grasp (option hidden_pushes): every neighbour a
+# grasp lifts is a failed grasp (DESIGN.md section 8), pushes are not. Chosen on training seeds (docs/RESULTS.md).
+HIDDEN_PUSHES = 6
 
 
 class LearnedPolicy(PolicyBase):
@@ -64,7 +68,7 @@ class LearnedPolicy(PolicyBase):
         if self.min_target_cells < 1:
             raise ValueError(f"min_target_cells must be >= 1, got {self.min_target_cells}")
         hidden = opts.get("hidden_pushes")
-        self.hidden_pushes = 0 if hidden is None else int(hidden)
+        self.hidden_pushes = HIDDEN_PUSHES if hidden is None else int(hidden)
         if self.hidden_pushes < 0:
             raise ValueError(f"hidden_pushes must be >= 0 (0 = off), got {self.hidden_pushes}")
         self.pushes_in_row = 0

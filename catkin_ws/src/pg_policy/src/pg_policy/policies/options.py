@@ -31,7 +31,7 @@ GENERAL = (
                  "from this many detected cells; fewer: goal-agnostic over every object (default 25)", metavar="N"),
     PolicyOption("hidden_pushes", "int", "learned: while the target is hidden (goal-agnostic), push instead of "
                  "grasping a neighbour until this many pushes in a row, then grasp as Q_g says; 0: grasp as Q_g says "
-                 "(default 0)", metavar="N"),
+                 "(default 6)", metavar="N"),
     PolicyOption("forced_grasp", "switch", "learned: when the push budget forces a grasp that no candidate passes "
                  "the grasp rules for, grasp the best cell passing their weaker fallback tests; off: Q_g's argmax"),
     PolicyOption("q_window", "switch", "learned: compute Q only around the target's grasp and push regions, exactly "
