@@ -45,7 +45,8 @@ def sample_drops(n: int, seed: int, target: str = "green", shapes: tuple[str, ..
 
 
 def drop_scene(world: World, drops: SceneSpec, settle_each: float = 0.25, retries: int = 3) -> SceneSpec:
-    """Spawn the drops one at a time into an emptied world, settle, re-drop escapees; returns the settled scene."""
+    """Spawn the drops one at a time into an emptied world, settle, re-drop escapees (`retries` times, then the
+    target alone up to TARGET_RETRIES more: the protocol's reset needs it inside); returns the settled scene."""
     world.clear_objects()
     world.home()
     rng = np.random.default_rng(zlib.crc32(drops.name.encode()))
@@ -57,15 +58,10 @@ def drop_scene(world: World, drops: SceneSpec, settle_each: float = 0.25, retrie
     world.scene = drops
     world.settle()
     ws = world.geometry.workspace
-
-    def outside() -> list[int]:
-        return [b for b, pose in world.object_poses().items()
-                if not (ws.x[0] + 0.01 < pose[0] < ws.x[1] - 0.01 and ws.y[0] + 0.01 < pose[1] < ws.y[1] - 0.01)]
-
-    for attempt in range(retries + TARGET_RETRIES):
-        out = outside()
-        if attempt >= retries:  # the protocol needs the target inside; other escapees may stay out
-            out = [b for b in out if b == world.target_id]
+    for attempt in range(retries + TARGET_RETRIES):  # after `retries`, the target only: other escapees may stay out
+        out = [b for b, pose in world.object_poses().items()
+               if not (ws.x[0] + 0.01 < pose[0] < ws.x[1] - 0.01 and ws.y[0] + 0.01 < pose[1] < ws.y[1] - 0.01)
+               and (attempt < retries or b == world.target_id)]
         if not out:
             break
         for body in out:
