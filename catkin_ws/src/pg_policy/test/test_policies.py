@@ -319,6 +319,34 @@ def test_the_landing_guard_moves_a_push_off_the_objects_and_keeps_the_decision(m
     assert landing.cover(obs.heightmap.height, d1.rotation, d1.row, d1.col) <= landing.max_cover
 
 
+def test_the_rules_see_only_the_valid_cells_the_decision_chooses_among(model_dir):
+    # decide() chooses among the heightmap's valid cells. Cells without a depth reading (shadows beside tall objects)
+    # must be out of the regions the rules re-rank too: otherwise the guard's first passing push can be a cell the
+    # decision never takes, and the push falls to the best valid cell, which no rule checked.
+    from pg_policy.decision.rules.push_landing import LandingGuard
+
+    obs = _scene([(0.0, 0.0, CUBE, CUBE, "green"), (0.05, 0.0, CUBE, CUBE, "blue"), (-0.05, 0.0, CUBE, CUBE, "red"),
+                  (0.0, 0.05, CUBE, CUBE, "yellow"), (0.0, -0.05, CUBE, CUBE, "orange")])
+    valid = np.ones_like(obs.heightmap.valid)
+    valid[:, ::2] = False  # every other column without a depth reading
+    obs = _Obs(Heightmap(obs.heightmap.color, obs.heightmap.height, valid, RES, BOUNDS))
+    guarded = learned(model_dir, {"grasp_threshold": 1e9, "push_landing": True})
+    guard = guarded.rules["push_landing"]
+    guard.top_k = 10**6
+    asked = []
+
+    def test(ctx):
+        inner = LandingGuard.candidate_test(guard, ctx)
+        return lambda r, row, col: asked.append((row, col)) or inner(r, row, col)
+
+    guard.candidate_test = test
+    d = guarded.act(obs)
+    assert d.primitive == "push" and valid[d.row, d.col] and asked
+    assert all(valid[row, col] for row, col in asked)
+    assert (d.row, d.col) == asked[-1]  # the decision is the push the guard passed
+    assert guard.cover(obs.heightmap.height, d.rotation, d.row, d.col) <= guard.max_cover
+
+
 def test_the_strict_check_pushes_when_no_grasp_passes_until_the_push_budget_is_spent(model_dir):
     # A target boxed in on all four sides: no jaw fits. "jaw" grasps anyway (threshold -1e9), "jaw-strict" pushes,
     # and grasps once the push budget (1) is spent: at the best cell passing the check's fallback tests (the target

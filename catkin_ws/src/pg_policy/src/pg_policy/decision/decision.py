@@ -63,6 +63,16 @@ def push_region(target: np.ndarray, resolution: float, radius_m: float = PUSH_RA
     return dilate_mask(target, resolution, radius_m)
 
 
+def regions(target: np.ndarray, heightmap: Heightmap) -> tuple[np.ndarray, np.ndarray]:
+    """((H, W) bool grasp region, (H, W) bool push region) of the (H, W) bool `target` with the default radii, each
+    restricted to the heightmap's valid cells: the regions `decide` chooses in, which the test-time rules must see
+    too (a candidate the rules accept on an invalid cell would never be chosen, and the decision would fall to a
+    candidate no rule had checked)."""
+    valid = np.asarray(heightmap.valid, dtype=bool)
+    res = heightmap.resolution
+    return grasp_region(target, res) & valid, push_region(target, res) & valid
+
+
 def _masked(q: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """(R, H, W) float64 copy of `q` with -inf outside the (H, W) mask and at NaN; ValueError on a shape mismatch."""
     q = np.asarray(q, dtype=np.float64)

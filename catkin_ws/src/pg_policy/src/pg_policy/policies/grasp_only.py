@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from pg_policy.decision.decision import Decision, grasp_region, masked_argmax, push_region
+from pg_policy.decision.decision import Decision, masked_argmax, regions
 from pg_policy.decision.rules.registry import make_pipeline, model_rules
 from pg_policy.decision.rules.rule import RuleContext
 from pg_policy.policies.model_files import load_nets, resolve_models
@@ -31,7 +31,7 @@ class GraspOnlyPolicy(PolicyBase):
         hm = obs.heightmap
         mask, visible = goal_or_all(obs)
         q = self.nets.q_maps(hm, mask, nets=("grasp",))["grasp"]
-        ctx = RuleContext(hm, mask, visible, grasp_region(mask, hm.resolution), push_region(mask, hm.resolution))
+        ctx = RuleContext(hm, mask, visible, *regions(mask, hm))
         for f in self.filters:
             q = f.adjust(q, ctx)
         self._q = {"grasp": q}

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from pg_core.target_mask import MIN_VISIBLE_CELLS
-from pg_policy.decision.decision import Decision, decide, grasp_region, push_region
+from pg_policy.decision.decision import Decision, decide, regions
 from pg_policy.decision.rules.registry import make_pipeline, model_rules
 from pg_policy.decision.rules.rule import RuleContext
 from pg_policy.models.inference import target_window
@@ -109,7 +109,7 @@ class LearnedPolicy(PolicyBase):
         t0 = time.perf_counter()
         hm = obs.heightmap
         target, visible = goal_or_all(obs, self.min_target_cells)
-        ctx = RuleContext(hm, target, visible, grasp_region(target, hm.resolution), push_region(target, hm.resolution))
+        ctx = RuleContext(hm, target, visible, *regions(target, hm))
         self.rules.observe(self.last, ctx)
         t1 = time.perf_counter()
         q = self._q_maps(hm, target, ctx)
