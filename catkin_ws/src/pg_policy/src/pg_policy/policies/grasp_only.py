@@ -35,5 +35,6 @@ class GraspOnlyPolicy(PolicyBase):
         for f in self.filters:
             q = f.adjust(q, ctx)
         self._q = {"grasp": q}
-        r, row, col, value = masked_argmax(q, mask & hm.valid if (mask & hm.valid).any() else mask)
+        region = ctx.grasp_region  # the target's valid cells
+        r, row, col, value = masked_argmax(q, region if region.any() else mask)
         return self.decision(hm, "grasp", r, row, col, value, value)
