@@ -124,6 +124,27 @@ def test_parameters_and_flags_come_from_the_declaration():
     assert options.from_args(args) == {"grasp_check": "none", "edge_guard": True, "futile_push_radius": 0.01}
 
 
+def test_help_shows_the_policy_defaults_and_export_offers_only_what_a_model_carries():
+    import argparse
+
+    from pg_core.target_mask import MIN_VISIBLE_CELLS
+    from pg_policy.policies.learned import HIDDEN_PUSHES
+
+    # the defaults --help and the launch files show are the values the policy uses when the option is unset
+    assert options.option("min_target_cells").default == str(MIN_VISIBLE_CELLS)
+    assert options.option("hidden_pushes").default == str(HIDDEN_PUSHES)
+    parser = argparse.ArgumentParser()
+    options.add_arguments(parser)
+    text = " ".join(parser.format_help().split())
+    assert f"goal-agnostic over every object (default: {MIN_VISIBLE_CELLS})" in text
+    assert "(default: the model's own)" in text  # the model options
+    export = argparse.ArgumentParser()
+    options.add_arguments(export, model_only=True)
+    flags = {a.dest for a in export._actions}
+    assert {"grasp_threshold", "push_budget", "rules", "grasp_check"} <= flags
+    assert not flags & {"min_target_cells", "hidden_pushes", "forced_grasp", "q_window"}
+
+
 @pytest.mark.parametrize("name", ["sim.launch", "robot.launch", "pushgrasp_core.launch"])
 def test_the_launch_files_declare_every_option(name: str):
     ElementTree.parse(LAUNCH / name)  # well-formed XML (roslaunch parses it the same way)

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from pg_policy.decision.option import PolicyOption
 from pg_policy.policies import options
 
 STAGE_ORDER = ("offline", "alternate", "push", "grasp-goal", "grasp-agnostic")  # offline: `pushgrasp offline`
@@ -20,8 +21,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--stage", default=None, choices=STAGE_ORDER,
                    help="stage whose last.pt to export (default: the latest stage present)")
     p.add_argument("--out", type=Path, required=True, help="output directory for grasp.pt and push.pt")
-    options.add_arguments(p, unset="the run's threshold and budget; rules: failed_grasps:0.01 only")
+    options.add_arguments(p, unset=_unset, model_only=True)
     p.set_defaults(run=_run)
+
+
+def _unset(o: PolicyOption) -> str:
+    """What export writes for an unset model option: the run's threshold and budget, else the base rule list."""
+    if o.name in ("grasp_threshold", "push_budget"):
+        return "the run's"
+    return f"as in the base rule list {','.join(BASE_RULES)}"
 
 
 def latest_checkpoint(run: Path, stage: str | None) -> Path:

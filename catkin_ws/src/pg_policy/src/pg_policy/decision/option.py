@@ -2,7 +2,9 @@
 
 The policies' option table (pg_policy.policies.options) is built from these declarations; from it come the CLI flags
 (`--grasp-check`), the policy node's private parameters (`~grasp_check`) and the launch arguments
-(`grasp_check:=`). Every option's default is "the model's own": an unset option leaves the model's value.
+(`grasp_check:=`). A model option (grasp threshold, push budget, rule list, rule switches) is exported in the model's
+metadata, so an unset one leaves the model's value; a policy option (`default` set) is not in the model, so an unset
+one takes the policy's default.
 """
 
 from __future__ import annotations
@@ -19,7 +21,8 @@ class PolicyOption:
     """name: snake_case (the ROS parameter and launch argument; the CLI flag is --name-with-dashes); type: one of
     TYPES; help: one sentence for --help, the launch file's doc= and docs; choices / metavar: for the CLI; rule:
     the test-time rule (pg_policy.decision.rules) this option switches, None for a plain option; off: the value
-    that removes the rule from the list ("switch" options: off)."""
+    that removes the rule from the list ("switch" options: off); default: None for a model option (its unset value
+    is the model's own), else the policy's value when unset, as --help and the launch files show it (e.g. "25")."""
 
     name: str
     type: str
@@ -28,10 +31,16 @@ class PolicyOption:
     metavar: str | None = None
     rule: str | None = None
     off: Any = None
+    default: str | None = None
 
     def __post_init__(self) -> None:
         if self.type not in TYPES:
             raise ValueError(f"option {self.name}: type must be one of {TYPES}, got {self.type!r}")
+
+    @property
+    def in_model(self) -> bool:
+        """Whether the exported model carries this option's value (pushgrasp export takes it)."""
+        return self.default is None
 
     @property
     def flag(self) -> str:

@@ -28,16 +28,19 @@ GENERAL = (
                  "grasp_filter:min3,failed_grasps:0.01,grasp_check:jaw-walls,push_landing,edge_guard); none: no "
                  "rules", metavar="LIST"),
     PolicyOption("min_target_cells", "int", "learned: the target counts as visible (goal-conditioned maps and rules) "
-                 "from this many detected cells; fewer: goal-agnostic over every object (default 25)", metavar="N"),
+                 "from this many detected cells; fewer: goal-agnostic over every object", metavar="N", default="25"),
     PolicyOption("hidden_pushes", "int", "learned: while the target is hidden (goal-agnostic), push instead of "
-                 "grasping a neighbour until this many pushes in a row, then grasp as Q_g says; 0: grasp as Q_g says "
-                 "(default 6)", metavar="N"),
+                 "grasping a neighbour until this many pushes in a row, then grasp as Q_g says; 0: grasp as Q_g says",
+                 metavar="N", default="6"),
     PolicyOption("forced_grasp", "switch", "learned: when the push budget forces a grasp that no candidate passes "
-                 "the grasp rules for, grasp the best cell passing their weaker fallback tests; off: Q_g's argmax"),
+                 "the grasp rules for, grasp the best cell passing their weaker fallback tests; off: Q_g's argmax",
+                 default="on"),
     PolicyOption("q_window", "switch", "learned: compute Q only around the target's grasp and push regions, exactly "
-                 "(lite nets; other cells are -inf, so Q map images show the regions); off: the full maps"),
+                 "(lite nets; other cells are -inf, so Q map images show the regions); off: the full maps",
+                 default="on"),
 )
 NO_RULES = "none"
+MODEL_OWN = "the model's own"
 
 
 def options() -> tuple[PolicyOption, ...]:
@@ -72,9 +75,14 @@ def resolved_rules(model_specs: Sequence[str], overrides: Mapping[str, Any]) -> 
     return specs
 
 
-def add_arguments(parser: argparse.ArgumentParser, unset: str = "the model's own") -> None:
-    """One flag per declared option (default None; `unset` says in --help what an unset option means)."""
+def add_arguments(parser: argparse.ArgumentParser, unset: str | Callable[[PolicyOption], str] = MODEL_OWN,
+                  model_only: bool = False) -> None:
+    """One flag per declared option (default None; `unset`, a text or a function of the option, says in --help what
+    an unset model option means, a policy option shows its own default); model_only: only the options an exported
+    model carries (in_model)."""
     for o in options():
+        if model_only and not o.in_model:
+            continue
         def parse(text: str, o: PolicyOption = o) -> Any:
             try:
                 return o.parse(text)
@@ -83,7 +91,7 @@ def add_arguments(parser: argparse.ArgumentParser, unset: str = "the model's own
 
         metavar = "{on,off}" if o.type == "switch" else ("{" + ",".join(o.choices) + "}" if o.choices else o.metavar)
         parser.add_argument(o.flag, dest=o.name, type=parse, default=None, metavar=metavar,
-                            help=f"{o.help} (default: {unset})")
+                            help=f"{o.help} (default: {o.default or (unset if isinstance(unset, str) else unset(o))})")
 
 
 def from_args(args: argparse.Namespace) -> dict[str, Any]:
@@ -110,15 +118,19 @@ BEGIN = "<!-- policy options: generated from pg_policy.policies.options (python 
 END = "<!-- end of policy options -->"
 
 
+def _launch_doc(o: PolicyOption) -> str:
+    """The launch argument's doc=: the option's help and what `auto` (unset) means for it."""
+    return f"{o.help} ({AUTO}: {o.default or MODEL_OWN})"
+
+
 def launch_block(kind: str) -> list[str]:
     """The launch file lines for the declared options: "args" (the <arg> declarations of sim.launch, robot.launch
     and pushgrasp_core.launch), "pass" (the include's pass-through <arg>s of sim/robot.launch) or "params" (the
     policy node's <param>s in pushgrasp_core.launch)."""
     types = {"float": "double", "int": "int", "str": "str", "switch": "str"}
-    own = f" ({AUTO}: the model's own)"
     auto = repr(AUTO)
     lines = {
-        "args": [f'<arg name="{o.name}" default="{AUTO}" doc={quoteattr(o.help + own)}/>' for o in options()],
+        "args": [f'<arg name="{o.name}" default="{AUTO}" doc={quoteattr(_launch_doc(o))}/>' for o in options()],
         "pass": [f'<arg name="{o.name}" value="$(arg {o.name})"/>' for o in options()],
         "params": [f'<param if="$(eval {o.name} != {auto})" name="{o.name}" type="{types[o.type]}" '
                    f'value="$(arg {o.name})"/>' for o in options()],
