@@ -30,16 +30,13 @@ from pg_policy.decision.rules.registry import make_pipeline, model_rules
 from pg_policy.decision.rules.rule import RuleContext
 from pg_policy.models.inference import target_window
 from pg_policy.policies.model_files import load_nets, metadata_thresholds, resolve_models, threshold_from_metadata
-from pg_policy.policies.options import resolved_rules
+from pg_policy.policies.options import HIDDEN_PUSHES, resolved_rules
 from pg_policy.policies.policy import PolicyBase, PolicyOptions, goal_or_all
 
 # Cells of Q computed beyond a region: each rule's `reach` (the grasp filter's k x k squares read (k - 1) / 2 cells
 # around a cell; the shipped min3 reads 1), this many for a filter rule whose reach is unknown. A primitive without
 # filter rules needs its region only.
 WINDOW_MARGIN_CELLS = 4
-# Pushes in a row while the target is hidden before a goal-agnostic grasp (option hidden_pushes): every neighbour a
-# grasp lifts is a failed grasp (DESIGN.md section 8), pushes are not. Chosen on training seeds (docs/RESULTS.md).
-HIDDEN_PUSHES = 6
 
 
 class LearnedPolicy(PolicyBase):

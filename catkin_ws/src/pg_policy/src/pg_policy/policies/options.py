@@ -16,8 +16,13 @@ from pathlib import Path
 from typing import Any
 from xml.sax.saxutils import quoteattr
 
+from pg_core.target_mask import MIN_VISIBLE_CELLS
 from pg_policy.decision.option import AUTO, PolicyOption
 from pg_policy.decision.rules.registry import parse_spec, rule_classes, with_switch
+
+# Pushes in a row while the target is hidden before a goal-agnostic grasp (option hidden_pushes): every neighbour a
+# grasp lifts is a failed grasp (DESIGN.md section 8), pushes are not. Chosen on training seeds (docs/RESULTS.md).
+HIDDEN_PUSHES = 6
 
 GENERAL = (
     PolicyOption("grasp_threshold", "float", "learned: grasp when the masked max of Q_g over the target exceeds this, "
@@ -28,10 +33,11 @@ GENERAL = (
                  "grasp_filter:min3,failed_grasps:0.01,grasp_check:jaw-walls,push_landing,edge_guard); none: no "
                  "rules", metavar="LIST"),
     PolicyOption("min_target_cells", "int", "learned: the target counts as visible (goal-conditioned maps and rules) "
-                 "from this many detected cells; fewer: goal-agnostic over every object", metavar="N", default="25"),
+                 "from this many detected cells; fewer: goal-agnostic over every object", metavar="N",
+                 default=str(MIN_VISIBLE_CELLS)),
     PolicyOption("hidden_pushes", "int", "learned: while the target is hidden (goal-agnostic), push instead of "
                  "grasping a neighbour until this many pushes in a row, then grasp as Q_g says; 0: grasp as Q_g says",
-                 metavar="N", default="6"),
+                 metavar="N", default=str(HIDDEN_PUSHES)),
     PolicyOption("forced_grasp", "switch", "learned: when the push budget forces a grasp that no candidate passes "
                  "the grasp rules for, grasp the best cell passing their weaker fallback tests; off: Q_g's argmax",
                  default="on"),
