@@ -47,3 +47,30 @@ def test_a_run_folder_without_results_reads_its_journal(tmp_path, capsys):
     assert main([str(tmp_path / "none")]) == 2 and "No such file" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["--help"])
+
+
+def test_pooled_table_has_a_column_per_named_set_of_runs(tmp_path, capsys):
+    from pg_policy.evaluation.report import write_results
+    from pg_policy.evaluation.target_kinds import load_tree, main, pooled_by_kind, pooled_lines
+
+    def trials(scene, ok):
+        return [TrialRecord(scene=scene, seed=s, completed=ok, grasps=1, target_grasps=int(ok),
+                            termination="completed" if ok else "max_actions") for s in range(1_000_000, 1_000_006)]
+
+    for policy, ok in (("a", True), ("b", False)):
+        for scene in ("novel-10", "novel-15"):
+            write_results(tmp_path / policy / scene, trials(scene, ok), {"policy": policy, "seed": 1_000_000,
+                                                                        "trials": 6})
+    pooled = pooled_by_kind(load_tree(tmp_path / "a"))
+    assert sum(m["C"].n for m in pooled.values()) == 12 and all(m["C"].mean == 1.0 for m in pooled.values())
+    lines = pooled_lines([("a", load_tree(tmp_path / "a")), ("b", load_tree(tmp_path / "b" / "novel-10"))])
+    assert lines[0] == "| target kind | a: n, C / GS (%) | b: n, C / GS (%) |" and len(lines) == 3 + len(pooled)
+    assert any("0.0 ± 0.0" in line for line in lines[2:])
+    assert pooled_lines([("c", trials("random-10", True))]) == []
+    b = tmp_path / "b"
+    assert main(["--pooled", f"a={tmp_path / 'a'}", f"b={b / 'novel-10'},{b / 'novel-15'}"]) == 0
+    assert "| a: n, C / GS (%) | b: n, C / GS (%) |" in capsys.readouterr().out
+    (tmp_path / "empty").mkdir()
+    assert main(["--pooled", f"e={tmp_path / 'empty'}"]) == 2 and "no `pushgrasp eval` output folder" in \
+        capsys.readouterr().err
+    assert main(["--pooled", "x="]) == 2 and "expected NAME=RUN" in capsys.readouterr().err

@@ -7,6 +7,8 @@ catalogue families (random-N, dense-N, fixed scenes) have no kind rows.
 
 ``python -m pg_policy.evaluation.target_kinds RUN [...]`` prints the table of saved runs: RUN is a results.json or
 an output folder of `pushgrasp eval` (its results.json, or the trials.jsonl of a run still going or stopped).
+``--pooled NAME=RUN[,RUN...] [...]`` pools the scenes of each named set of runs and prints one table, a row per kind
+and a column per name (a RUN may also be a folder of output folders, e.g. results/novel/lite).
 """
 
 from __future__ import annotations
@@ -41,6 +43,57 @@ def by_kind(trials: Sequence[TrialRecord]) -> dict[tuple[str, str], dict[str, St
     return {key: scene_metrics(groups[key]) for key in sorted(groups)}
 
 
+def pooled_by_kind(trials: Sequence[TrialRecord]) -> dict[str, dict[str, Stat]]:
+    """{kind: C, GS, MN, ...} over the catalogue-family trials of all scenes together, kinds sorted."""
+    groups: dict[str, list[TrialRecord]] = {}
+    for t in trials:
+        kind = target_kind_of(t.scene, int(t.seed))
+        if kind is not None:
+            groups.setdefault(kind, []).append(t)
+    return {kind: scene_metrics(groups[kind]) for kind in sorted(groups)}
+
+
+def load_tree(path: Path) -> list[TrialRecord]:
+    """The trials of `load_trials(path)`, or, for a folder that is not an output folder itself, of every output
+    folder directly inside it (in name order). Raises FileNotFoundError when there is none."""
+    path = Path(path)
+    if not path.is_dir() or (path / "results.json").is_file() or (path / "trials.jsonl").is_file():
+        return load_trials(path)
+    runs = [d for d in sorted(path.iterdir()) if (d / "results.json").is_file() or (d / "trials.jsonl").is_file()]
+    if not runs:
+        raise FileNotFoundError(f"{path}: no `pushgrasp eval` output folder in it or below it")
+    return [t for d in runs for t in load_trials(d)]
+
+
+def pooled_lines(named: Sequence[tuple[str, Sequence[TrialRecord]]]) -> list[str]:
+    """Markdown table: a row per target kind, a column per (name, trials) with n, C and GS (%) pooled over its
+    scenes; a kind a set has no trial of shows "-". Empty list when no set has a catalogue-family trial."""
+    from pg_policy.evaluation.report import fmt
+
+    tables = [(name, pooled_by_kind(trials)) for name, trials in named]
+    kinds = sorted({k for _, table in tables for k in table})
+    if not kinds:
+        return []
+    lines = ["| target kind | " + " | ".join(f"{name}: n, C / GS (%)" for name, _ in tables) + " |",
+             "|---|" + "---|" * len(tables)]
+    for kind in kinds:
+        cells = [f"{m['C'].n}, {fmt(m['C'], 100)} / {fmt(m['GS'], 100)}" if (m := table.get(kind)) else "-"
+                 for _, table in tables]
+        lines.append(f"| {kind} | " + " | ".join(cells) + " |")
+    return lines + [""]
+
+
+def _named(arg: str) -> tuple[str, list[Path]]:
+    """('NAME', [RUN, ...]) of a --pooled argument NAME=RUN[,RUN...] (NAME defaults to the first RUN)."""
+    name, sep, runs = arg.partition("=")
+    if not sep:
+        name, runs = arg, arg
+    paths = [Path(r) for r in runs.split(",") if r]
+    if not name or not paths:
+        raise ValueError(f"'{arg}': expected NAME=RUN[,RUN...]")
+    return name, paths
+
+
 def load_trials(path: Path) -> list[TrialRecord]:
     """The trials of a results.json written by `pushgrasp eval`, or of an output folder (results.json, else the
     finished trials in trials.jsonl). Raises FileNotFoundError when there is neither."""
@@ -66,9 +119,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("runs", nargs="+", type=Path,
                         help="results.json files or `pushgrasp eval` output folders (a folder without results.json: "
                              "the finished trials of its trials.jsonl)")
+    parser.add_argument("--pooled", action="store_true",
+                        help="runs are NAME=RUN[,RUN...] (a RUN may be a folder of output folders): one table, a "
+                             "row per kind and a column per NAME, the scenes of each NAME pooled")
     args = parser.parse_args(argv)
     from pg_policy.evaluation.report import kind_lines
 
+    if args.pooled:
+        try:
+            named = [(name, [t for p in paths for t in load_tree(p)])
+                     for name, paths in (_named(str(a)) for a in args.runs)]
+        except (OSError, ValueError, KeyError) as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        print("\n".join(pooled_lines(named)) or "(no catalogue-family trials)")
+        return 0
     for path in args.runs:
         try:
             trials = load_trials(path)
