@@ -12,6 +12,8 @@
 #   PG_TRAIN_MINUTES  wall-clock cap per stage invocation, 0 = none (0): with a cap, rerun to continue
 #   PG_TRAIN_INIT     exported model directory that replaces the grasp-agnostic stage ("": train it)
 #   PG_TRAIN_THREADS  torch CPU threads (2)
+#   PG_TRAIN_COLLECTORS Ray collector actors that play the episodes beside the learner (0: the paper's serial loop
+#                     in one process; N: a local Ray of N + 1 CPUs, docs/CLUSTER.md; 2 on 2 cores is about 1.75x)
 #   PG_TRAIN_SCALE    multiplies every stage's iterations (1.0), e.g. 0.5 for a quicker, weaker model
 #   PG_TRAIN_BACKBONE backbone of the four stages (lite); lite-os8 to start from the shipped model (PG_TRAIN_INIT)
 #   PG_TRAIN_SIM_MODE simulation mode of the episodes: fast or faithful (fast; docs/ARCHITECTURE.md)
@@ -26,6 +28,7 @@ export_dir="${PG_TRAIN_EXPORT:-catkin_ws/src/pg_policy/models/lite}"
 minutes="${PG_TRAIN_MINUTES:-0}"
 init="${PG_TRAIN_INIT:-}"
 threads="${PG_TRAIN_THREADS:-2}"
+collectors="${PG_TRAIN_COLLECTORS:-0}"
 scale="${PG_TRAIN_SCALE:-1.0}"
 objects="${PG_TRAIN_OBJECTS:-blocks}"
 backbone="${PG_TRAIN_BACKBONE:-lite}"
@@ -65,7 +68,7 @@ for row in "${STAGES[@]}"; do
   echo "[recipe] $stage: $iters iterations on $scene, lr $lr, seed $seed"
   "$py" -m pg_policy.cli.main train --stage "$stage" --out "$out" --scene "$scene" --iterations "$iters" --lr "$lr" \
     --backbone "$backbone" --seed "$seed" --threads "$threads" --minutes "$minutes" --sim-mode "$sim_mode" \
-    "${stage_flags[@]}" "${extra[@]}"
+    --collectors "$collectors" "${stage_flags[@]}" "${extra[@]}"
   done_its=$("$py" -c "import torch; print(torch.load('$out/$stage/last.pt', weights_only=False)['iteration'])")
   if [ "$done_its" -lt "$iters" ]; then
     echo "[recipe] $stage stopped at $done_its/$iters iterations (time cap): rerun to continue"
@@ -78,7 +81,7 @@ os8_iters=$("$py" -c "print(max(1, round(800 * $scale)))")
 echo "[recipe] alternate at output stride 8: $os8_iters iterations on $dense"
 "$py" -m pg_policy.cli.main train --stage alternate --backbone lite-os8 --init "$out/os16_model" --out "$out/os8" \
   --scene "$dense" --iterations "$os8_iters" --lr 1e-4 --seed 8 --threads "$threads" --minutes "$minutes" \
-  --sim-mode "$sim_mode" \
+  --sim-mode "$sim_mode" --collectors "$collectors" \
   --guided-exploration 0.7 --grasp-threshold 0.7 --push-budget 3 --epsilon-start 0.3 --epsilon-end 0.1 \
   --epsilon-decay "$(( os8_iters * 3 / 4 > 0 ? os8_iters * 3 / 4 : 1 ))"
 done_its=$("$py" -c "import torch; print(torch.load('$out/os8/alternate/last.pt', weights_only=False)['iteration'])")
