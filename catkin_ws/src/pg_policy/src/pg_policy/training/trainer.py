@@ -278,7 +278,8 @@ class Trainer:
                 bar.close()
         path = self.save()
 
-        plot_curves(self.log_, self.dir / "curves.png", title=f"{self.stage.name} ({cfg.backbone}, goal {cfg.goal})")
+        plot_curves(self.log_, self.dir / "curves.png",
+                    title=f"{self.stage.name} ({cfg.backbone}, goal input: {cfg.goal})")
         (self.dir / "summary.json").write_text(json.dumps(
             {"stage": self.stage.name, "iterations": self.iteration, "this_run": self.iteration - start,
              "recent_grasp_success": float(np.mean(recent)) if recent else None}, indent=2))
