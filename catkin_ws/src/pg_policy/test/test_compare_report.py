@@ -87,3 +87,21 @@ def test_training_families_are_compared_without_targets(tmp_path):
     text = markdown([load_policy("a", tmp_path / "a"), load_policy("b", tmp_path / "b")], check="a")
     assert "### training" in text and "train-novel-10" not in text.split("### Targets")[1]
     assert "| training | b | 6 | 2 | 0 |" in text
+
+
+def test_links_are_followed_and_an_unfinished_run_reads_its_journal(two_policies, tmp_path):
+    linked = tmp_path / "linked"
+    linked.mkdir()
+    (linked / "packed").symlink_to(two_policies / "good" / "packed")
+    running = linked / "random"
+    running.mkdir()
+    lines = [{"run": {"policy": "x"}}] + [{"trial": _trial("random-10", 1000000 + i, True, 1, 1, 0)} for i in range(2)]
+    (running / "trials.jsonl").write_text("".join(json.dumps(d) + "\n" for d in lines))
+    policy = load_policy("linked", linked)
+    assert sorted(policy.trials) == ["packed/case01", "random-10"]
+    assert len(policy.trials["packed/case01"]) == 4 and len(policy.trials["random-10"]) == 2
+    (linked / "again").symlink_to(two_policies / "good" / "packed")  # the same real folder again: read once
+    assert len(load_policy("linked", linked).trials["packed/case01"]) == 4
+    _write(linked / "copy", [_trial("packed/case01", 1000000, True, 1, 1, 2)])  # the scene in a second folder
+    with pytest.raises(ValueError, match="scene packed/case01 appears in two output folders"):
+        load_policy("linked", linked)

@@ -5,7 +5,8 @@ from __future__ import annotations
 import json
 
 from pg_policy.evaluation.report import kind_lines, write_results
-from pg_policy.evaluation.target_kinds import by_kind, load_trials, target_kind_of
+from pg_policy.evaluation.saved_runs import load_trials
+from pg_policy.evaluation.target_kinds import by_kind, target_kind_of
 from pg_policy.evaluation.trials import TrialRecord
 from pg_sim.world.scene_families import sample_family, target_kind
 
@@ -51,7 +52,8 @@ def test_a_run_folder_without_results_reads_its_journal(tmp_path, capsys):
 
 def test_pooled_table_has_a_column_per_named_set_of_runs(tmp_path, capsys):
     from pg_policy.evaluation.report import write_results
-    from pg_policy.evaluation.target_kinds import load_tree, main, pooled_by_kind, pooled_lines
+    from pg_policy.evaluation.saved_runs import load_tree
+    from pg_policy.evaluation.target_kinds import main, pooled_by_kind, pooled_lines
 
     def trials(scene, ok):
         return [TrialRecord(scene=scene, seed=s, completed=ok, grasps=1, target_grasps=int(ok),

@@ -16,10 +16,12 @@ def _named(text: str) -> tuple[str, Path]:
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("compare", help="policies' eval results side by side (paper's table layout)",
-                       description="Reads every results.json under each FOLDER and writes a markdown report "
-                                   "(one table per scene family, the paper's figures beside them) and a PNG.")
+                       description="Reads every `pushgrasp eval` output folder under each FOLDER (results.json, "
+                                   "else the finished trials of trials.jsonl; symbolic links followed) and writes a "
+                                   "markdown report (one table per scene family, the paper's figures beside them) "
+                                   "and a PNG.")
     p.add_argument("policies", nargs="+", type=_named, metavar="NAME=FOLDER",
-                   help="a column name and the folder holding that policy's results.json files")
+                   help="a column name and the folder holding that policy's `pushgrasp eval` output folders")
     p.add_argument("--out", type=Path, required=True, help="markdown file to write (the PNG goes beside it)")
     p.add_argument("--check", default=None, metavar="NAME",
                    help="list where policy NAME misses the targets (per-scene C/GS, beating the others) and compare it "

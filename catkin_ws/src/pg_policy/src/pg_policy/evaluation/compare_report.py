@@ -1,25 +1,26 @@
 """Policies side by side: the `pushgrasp eval` results of several policies as the paper's Tables I-III, with the
 paper's published figures (DESIGN.md section 8) beside ours and the project's targets checked.
 
-Input: per policy, a folder searched recursively for results.json files (`scripts/eval_protocol.sh` writes one per
-family); a scene found twice for one policy is an error. Families (FAMILIES, matched by scene-name prefix): the
-protocol's packed (packed/case01-09), household (household/case11-14) and random (random-N), and the held-out object
-families novel-packed (novel-packed-N), novel (novel-N) and mixed (mixed-N), and the training families (train-*,
-pooled in one family, no targets: for choosing on training seeds). Family rows pool every trial of the
-family (pg_policy.evaluation.trials.summarize).
+Input: per policy, a folder searched at any depth (symbolic links followed) for `pushgrasp eval` output folders
+(`scripts/eval_protocol.sh` writes one per family): results.json, else the finished trials of a run's trials.jsonl
+(pg_policy.evaluation.saved_runs); a scene found in two output folders of one policy is an error.
+Families (FAMILIES, matched by scene-name prefix): the protocol's packed (packed/case01-09), household
+(household/case11-14) and random (random-N), and the held-out object families novel-packed (novel-packed-N), novel
+(novel-N) and mixed (mixed-N), and the training families (train-*, pooled in one family, no targets: for choosing on
+training seeds). Family rows pool every trial of the family (pg_policy.evaluation.trials.summarize).
 C and GS in percent, MN in pushes per completed trial, each mean ± standard error over trials. Trials that ended in an
 error (termination "error") are failures in C like any other; the policy table counts them.
 """
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from pg_policy.evaluation.paired import paired
 from pg_policy.evaluation.report import fmt
+from pg_policy.evaluation.saved_runs import load_trials, run_folders
 from pg_policy.evaluation.trials import Stat, TrialRecord, scene_metrics
 
 
@@ -71,27 +72,22 @@ class PolicyResults:
         return [t for s, ts in self.trials.items() if family_of(s) == family for t in ts]
 
 
-def _record(d: dict) -> TrialRecord:
-    keys = ("scene", "seed", "completed", "termination", "grasps", "target_grasps", "failed_grasps", "pushes",
-            "refused")
-    optional = ("error", "error_at")  # absent from results written before errors were recorded
-    return TrialRecord(**{k: d[k] for k in keys}, **{k: d.get(k) for k in optional})
-
-
 def load_policy(name: str, folder: Path) -> PolicyResults:
-    """Every trial of every results.json under `folder`. Raises FileNotFoundError when there is none, ValueError
-    for a scene present in two files."""
-    files = sorted(Path(folder).rglob("results.json"))
-    if not files:
-        raise FileNotFoundError(f"{name}: no results.json under {folder}")
+    """Every trial of every `pushgrasp eval` output folder at or below `folder` (pg_policy.evaluation.saved_runs:
+    results.json, else the finished trials of a run's journal; symbolic links followed). Raises FileNotFoundError
+    when there is none, ValueError for a scene present in two output folders."""
+    try:
+        folders = run_folders(Path(folder))
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{name}: no results.json or trials.jsonl under {folder}") from None
     trials: dict[str, list[TrialRecord]] = {}
-    for f in files:
-        per_file: dict[str, list[TrialRecord]] = {}
-        for t in json.loads(f.read_text())["trials"]:
-            per_file.setdefault(t["scene"], []).append(_record(t))
-        for scene, ts in per_file.items():
+    for f in folders:
+        per_folder: dict[str, list[TrialRecord]] = {}
+        for t in load_trials(f):
+            per_folder.setdefault(t.scene, []).append(t)
+        for scene, ts in per_folder.items():
             if scene in trials:
-                raise ValueError(f"{name}: scene {scene} appears in two results files (last: {f})")
+                raise ValueError(f"{name}: scene {scene} appears in two output folders (last: {f})")
             trials[scene] = ts
     return PolicyResults(name, trials)
 

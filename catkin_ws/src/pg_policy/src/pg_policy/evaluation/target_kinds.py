@@ -14,12 +14,12 @@ and a column per name (a RUN may also be a folder of output folders, e.g. result
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Sequence
 from functools import lru_cache
 from pathlib import Path
 
+from pg_policy.evaluation.saved_runs import load_tree, load_trials
 from pg_policy.evaluation.trials import Stat, TrialRecord, scene_metrics
 from pg_sim.world.scene_families import FAMILIES, parse_generated, sample_family, target_kind
 
@@ -53,18 +53,6 @@ def pooled_by_kind(trials: Sequence[TrialRecord]) -> dict[str, dict[str, Stat]]:
     return {kind: scene_metrics(groups[kind]) for kind in sorted(groups)}
 
 
-def load_tree(path: Path) -> list[TrialRecord]:
-    """The trials of `load_trials(path)`, or, for a folder that is not an output folder itself, of every output
-    folder directly inside it (in name order). Raises FileNotFoundError when there is none."""
-    path = Path(path)
-    if not path.is_dir() or (path / "results.json").is_file() or (path / "trials.jsonl").is_file():
-        return load_trials(path)
-    runs = [d for d in sorted(path.iterdir()) if (d / "results.json").is_file() or (d / "trials.jsonl").is_file()]
-    if not runs:
-        raise FileNotFoundError(f"{path}: no `pushgrasp eval` output folder in it or below it")
-    return [t for d in runs for t in load_trials(d)]
-
-
 def pooled_lines(named: Sequence[tuple[str, Sequence[TrialRecord]]]) -> list[str]:
     """Markdown table: a row per target kind, a column per (name, trials) with n, C and GS (%) pooled over its
     scenes; a kind a set has no trial of shows "-". Empty list when no set has a catalogue-family trial."""
@@ -92,25 +80,6 @@ def _named(arg: str) -> tuple[str, list[Path]]:
     if not name or not paths:
         raise ValueError(f"'{arg}': expected NAME=RUN[,RUN...]")
     return name, paths
-
-
-def load_trials(path: Path) -> list[TrialRecord]:
-    """The trials of a results.json written by `pushgrasp eval`, or of an output folder (results.json, else the
-    finished trials in trials.jsonl). Raises FileNotFoundError when there is neither."""
-    from pg_policy.evaluation.journal import record_from_dict
-
-    path = Path(path)
-    if path.is_dir():
-        if (path / "results.json").is_file():
-            path = path / "results.json"
-        elif (path / "trials.jsonl").is_file():
-            lines = (json.loads(line) for line in (path / "trials.jsonl").read_text(encoding="utf-8").splitlines()
-                     if line.strip())
-            return [record_from_dict(d["trial"]) for d in lines if "trial" in d]
-        else:
-            raise FileNotFoundError(f"{path}: no results.json or trials.jsonl (not a `pushgrasp eval` output folder)")
-    doc = json.loads(path.read_text(encoding="utf-8"))
-    return [record_from_dict(t) for t in doc["trials"]]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
