@@ -38,3 +38,19 @@ def test_infer_grasp_filter_flag_changes_the_deciding_value(tmp_path, capsys):
     bad = ["infer", "--scene", "packed/case01", "--out", str(tmp_path / "bad.png"), "--grasp-filter", "max3"]
     assert main(bad) == 2
     assert "bad grasp filter" in capsys.readouterr().err and not (tmp_path / "bad.png").exists()
+
+
+def test_infer_trial_replays_the_jittered_scene_of_an_eval_trial(tmp_path, capsys):
+    import json
+
+    args = ["infer", "--model", "heuristic", "--scene", "packed/case03", "--seed", "1000001"]
+    assert main([*args, "--out", str(tmp_path / "file.png")]) == 0
+    exact = capsys.readouterr().out.splitlines()[-2]
+    assert main([*args, "--trial", "--out", str(tmp_path / "trial.png")]) == 0
+    replay = capsys.readouterr().out.splitlines()[-2]
+    assert replay != exact  # the protocol's jitter moved the scene
+    out = tmp_path / "eval"
+    assert main(["eval", "--policy", "heuristic", "--scenes", "packed/case03", "--seed", "1000001", "--trials", "1",
+                 "--max-actions", "1", "--no-progress", "--out", str(out)]) == 0
+    first = json.loads((out / "results.json").read_text())["trials"][0]["actions"][0]["decision"]
+    assert f"at ({first['x']:.3f}, {first['y']:.3f}, {first['z']:.3f}) m" in replay

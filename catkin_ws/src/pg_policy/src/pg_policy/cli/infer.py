@@ -19,7 +19,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "registered policy or plugin (heuristic, ...; `pushgrasp policies`) (default: lite, the "
                         "shipped model)")
     p.add_argument("--scene", required=True, help="scene name (see `pushgrasp scene list`), YAML file, or random-N")
-    p.add_argument("--seed", type=int, default=1_000_000, help="seed for random-N scenes (default 1000000)")
+    p.add_argument("--seed", type=int, default=1_000_000,
+                   help="seed for generated scenes (random-N, novel-N, ...) and the policy (default 1000000)")
+    p.add_argument("--trial", action="store_true",
+                   help="the scene of `pushgrasp eval`'s trial SEED: a fixed scene (packed/caseNN, household/caseNN, "
+                        "YAML) moved by the protocol's jitter drawn from the seed (1 cm, 11.25 deg), so a trial of "
+                        "the records can be replayed and drawn; without it a fixed scene is the exact file")
     p.add_argument("--target", default=None, help="target colour (default: the scene's)")
     p.add_argument("--out", type=Path, required=True, help="output PNG (with --steps: the stem of the PNG sequence)")
     p.add_argument("--steps", type=int, default=0,
@@ -94,8 +99,13 @@ def _run(args: argparse.Namespace) -> int:
     rules = getattr(policy, "rules", None)  # learned policies: the filter rules are named in the Q_g panel
     grasp_filter = (", ".join(r.spec() for r in rules.rules if r.kind == "filter")
                     if isinstance(rules, RulePipeline) else None)
+    scene = args.scene
+    if args.trial:
+        from pg_policy.evaluation.trials import DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW, trial_scene
+
+        scene = trial_scene(args.scene, args.seed, DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW)
     with SimEnv() as env:
-        obs = env.reset(args.scene, seed=args.seed)
+        obs = env.reset(scene, seed=args.seed)
         if args.target:
             obs = type(obs)(obs.heightmap, args.target, obs.truth_target, obs.sim_time)
         policy.reset(args.seed)
