@@ -48,3 +48,10 @@ def test_folders_at_any_depth_links_followed_each_once(tmp_path):
         load_tree(tmp_path / "empty")
     with pytest.raises(FileNotFoundError):
         load_tree(tmp_path / "missing")
+
+
+def test_a_running_journal_with_a_half_written_last_line_is_read(tmp_path):
+    _journal(tmp_path / "run", _trials("novel-10", range(2)))
+    with (tmp_path / "run" / "trials.jsonl").open("a") as f:
+        f.write('{"trial": {"scene": "novel-10", "se')  # the line `pushgrasp eval` is writing now
+    assert [t.seed for t in load_trials(tmp_path / "run")] == [0, 1]

@@ -48,6 +48,25 @@ def record_from_dict(d: dict[str, Any]) -> TrialRecord:
     return TrialRecord(**{k: v for k, v in d.items() if k in names})
 
 
+def read_journal(path: Path) -> tuple[dict[str, Any], list[TrialRecord]]:
+    """(run key, finished trials in the order they finished) of a trial journal file. A last line cut off by a
+    crash or still being written is ignored; raises ValueError for a corrupt line elsewhere or a file without the
+    run line."""
+    path = Path(path)
+    lines = path.read_text(encoding="utf-8").splitlines()
+    entries = []
+    for n, line in enumerate(lines):
+        try:
+            entries.append(json.loads(line))
+        except json.JSONDecodeError as exc:
+            if n == len(lines) - 1:  # the line being written when the run was stopped
+                break
+            raise ValueError(f"{path}: line {n + 1} is not JSON ({exc}); remove the file or use --fresh") from exc
+    if not entries or "run" not in entries[0]:
+        raise ValueError(f"{path} is not a trial journal (no run line); remove it or use --fresh")
+    return entries[0]["run"], [record_from_dict(e["trial"]) for e in entries[1:]]
+
+
 class TrialJournal:
     """Finished trials of one run in `<out>/trials.jsonl` (module docstring)."""
 
@@ -60,25 +79,12 @@ class TrialJournal:
         self._fresh = fresh or not self.path.exists()
 
     def _load(self) -> None:
-        lines = self.path.read_text(encoding="utf-8").splitlines()
-        entries = []
-        for n, line in enumerate(lines):
-            try:
-                entries.append(json.loads(line))
-            except json.JSONDecodeError as exc:
-                if n == len(lines) - 1:  # the line being written when the run was stopped
-                    break
-                raise ValueError(f"{self.path}: line {n + 1} is not JSON ({exc}); remove the file or use "
-                                 "--fresh") from exc
-        if not entries or "run" not in entries[0]:
-            raise ValueError(f"{self.path} is not a trial journal (no run line); remove it or use --fresh")
-        old = entries[0]["run"]
+        old, records = read_journal(self.path)
         if old != self.key:
             diff = sorted(k for k in set(old) | set(self.key) if old.get(k) != self.key.get(k))
             raise JournalMismatch(f"{self.path.parent} holds trials of a run with other settings ({', '.join(diff)} "
                                   "differ): use another --out, or --fresh to discard them")
-        for e in entries[1:]:
-            rec = record_from_dict(e["trial"])
+        for rec in records:
             self.done[(rec.scene, int(rec.seed))] = rec
 
     def pending(self, jobs: list[tuple[str, int]]) -> list[int]:

@@ -12,7 +12,7 @@ import json
 import os
 from pathlib import Path
 
-from pg_policy.evaluation.journal import JOURNAL, record_from_dict
+from pg_policy.evaluation.journal import JOURNAL, read_journal, record_from_dict
 from pg_policy.evaluation.trials import TrialRecord
 
 RESULTS = "results.json"
@@ -32,9 +32,7 @@ def load_trials(path: Path) -> list[TrialRecord]:
         if (path / RESULTS).is_file():
             path = path / RESULTS
         elif (path / JOURNAL).is_file():
-            lines = (json.loads(line) for line in (path / JOURNAL).read_text(encoding="utf-8").splitlines()
-                     if line.strip())
-            return [record_from_dict(d["trial"]) for d in lines if "trial" in d]
+            return read_journal(path / JOURNAL)[1]
         else:
             raise FileNotFoundError(f"{path}: no {RESULTS} or {JOURNAL} (not a `pushgrasp eval` output folder)")
     doc = json.loads(path.read_text(encoding="utf-8"))
@@ -56,7 +54,7 @@ def run_folders(path: Path) -> list[Path]:
             continue
         seen.add(real)
         here = Path(root)
-        if here != path and is_run_folder(here):
+        if is_run_folder(here):
             found.append(here)
             dirs[:] = []
         else:
