@@ -19,7 +19,10 @@
 #   PG_TRAIN_SIM_MODE simulation mode of the episodes: fast or faithful (fast; docs/ARCHITECTURE.md)
 #   PG_TRAIN_OBJECTS  blocks: the block scenes of the shipped model (blocks); mixed: every stage also takes scenes
 #                     of the catalogue's training objects (train-mixed-N, train-novel-N, train-novel-packed-N, in
-#                     turn with the block scenes, one per episode); held-out objects are never trained on
+#                     turn with the block scenes, one per episode); household: the mixed scenes plus the
+#                     training household families (train-household-N, train-household-hard-N: household objects
+#                     dropped, and the target arranged under, inside, holding, leaning, among thin objects or at
+#                     the edge); held-out objects are never trained on
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/.." && pwd)
 cd "$repo"
@@ -44,7 +47,9 @@ py="$repo/.venv/bin/python"
 case "$objects" in
   blocks) sparse=random-10; dense=dense-8 ;;
   mixed) sparse=random-10,train-mixed-10,train-novel-10; dense=dense-8,train-novel-packed-8,train-mixed-10 ;;
-  *) echo "[recipe] PG_TRAIN_OBJECTS must be blocks or mixed, got '$objects'" >&2; exit 2 ;;
+  household) sparse=random-10,train-household-10,train-mixed-10,train-household-hard-8
+             dense=dense-8,train-household-hard-8,train-novel-packed-8,train-household-hard-10 ;;
+  *) echo "[recipe] PG_TRAIN_OBJECTS must be blocks, mixed or household, got '$objects'" >&2; exit 2 ;;
 esac
 STAGES=(
   "grasp-agnostic $sparse 2000 5e-4 1"

@@ -44,7 +44,7 @@ def narration(line: str) -> list[tuple[str, str]]:
 def tracked_markdown() -> list[Path]:
     """Tracked Markdown files of the repository, relative to its root, minus the excluded prefixes."""
     if shutil.which("git") is None or not (REPO / ".git").exists():
-        pytest.skip("not a git checkout")
+        pytest.fail("the Markdown docs are found with `git ls-files`: run the tests in a git checkout")
     out = subprocess.run(["git", "ls-files", "-z", "*.md"], cwd=REPO, check=True, capture_output=True, text=True)
     names = [n for n in out.stdout.split("\0") if n and not n.startswith(EXCLUDED_PREFIXES)]
     return [Path(n) for n in names if (REPO / n).is_file()]

@@ -2,8 +2,9 @@
 
 tests/golden/ holds every observation the shipped `lite` policy saw in the first protocol trial (seed 1,000,000) of
 each of the 16 protocol scenes, with the decision it took (recorded by tests/golden/record_golden.py, one torch thread
-as in a protocol worker). The replay feeds the stored heightmaps through a fresh policy trial by trial, so the
-within-trial rules (failed grasps, futile pushes) see the same history; the simulator test re-runs two of those
+as in a protocol worker). The replay feeds the stored heightmaps through a fresh policy trial by trial, each through
+the episode protocol's target memory as an evaluation trial does (pg_policy.target_loop.episode), so the within-trial
+rules (failed grasps, futile pushes) and the memory see the same history; the simulator test re-runs two of those
 trials end to end and must take the same actions as long as the simulator reproduces the recorded observations.
 """
 
@@ -66,7 +67,9 @@ def legacy_copy(folder: Path) -> Path:
 @pytest.mark.parametrize("model", ["lite", "lite with legacy metadata"])
 def test_golden_replay_of_every_protocol_scene(model: str, tmp_path: Path) -> None:
     from pg_core.heightmap import Heightmap
+    from pg_core.target_mask import target_mask
     from pg_policy.policies.registry import make_policy
+    from pg_policy.target_loop.episode import Episode, Outcome
 
     arrays = np.load(GOLDEN / "decisions.npz")
     recs = records()
@@ -76,11 +79,15 @@ def test_golden_replay_of_every_protocol_scene(model: str, tmp_path: Path) -> No
         for k, rec in enumerate(recs):
             if rec["step"] == 0:
                 policy.reset(rec["seed"])
+                episode = Episode()
             hm = Heightmap(arrays[f"color_{k}"], arrays[f"height_{k}"], arrays[f"valid_{k}"], rec["resolution"],
                            np.asarray(rec["bounds"]))
-            d = policy.act(SimpleNamespace(heightmap=hm, target=rec["target"]))
+            search = episode.observe(hm, target_mask(hm.color, hm.valid, rec["target"]))
+            d = policy.act(SimpleNamespace(heightmap=hm, target=rec["target"], search=search))
             assert_same(d, rec["decision"], f"{rec['scene']} step {rec['step']}")
             assert str(getattr(policy, "last_note", "")) == rec["note"]
+            assert episode.vet(d) is None  # the protocol executes it (no futile push repeated)
+            episode.record(d, Outcome())  # executed; the trial went on unless this was its last action
 
 
 @pytest.mark.parametrize("scene", ["packed/case01", "random-10"])

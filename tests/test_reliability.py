@@ -3,13 +3,12 @@ against its own sim.launch on a private ROS master, a few minutes on two cores),
 asserting that each of its invariants held, and one that nothing the suite started was left running.
 
 The long form, with its report: `scripts/reliability.py --out DIR --soak-calls 200 --fuzz 500` (`--help`).
-Skipped, with the reason, when the catkin devel space was not built.
+Without the ROS tier (conftest.py): a "ROS tier:" skip, which fails unless PG_SKIP_ROS_TIER=1.
 """
 
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 from pathlib import Path
 from typing import Any
@@ -18,13 +17,10 @@ import pytest
 from reliability.options import PROBES
 
 REPO = Path(__file__).resolve().parents[1]
-DEVEL = Path(os.environ.get("PG_DEVEL_DIR", REPO / "catkin_ws" / "devel"))
 SCRIPT = REPO / "scripts" / "reliability.py"
 RUN_TIMEOUT_S = 840  # the short form takes 2-4 minutes on two cores
 
-pytestmark = [pytest.mark.timeout(RUN_TIMEOUT_S + 60),
-              pytest.mark.skipif(not (DEVEL / "setup.bash").exists(),
-                                 reason=f"no catkin devel space at {DEVEL} (make build)")]
+pytestmark = [pytest.mark.timeout(RUN_TIMEOUT_S + 60), pytest.mark.usefixtures("ros_tier")]
 
 
 @pytest.fixture(scope="module")

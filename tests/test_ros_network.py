@@ -23,11 +23,10 @@ from urllib.parse import urlparse
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-DEVEL = Path(os.environ.get("PG_DEVEL_DIR", REPO / "catkin_ws" / "devel"))
 NETWORK_VARS = ("ROS_HOSTNAME", "ROS_IP", "ROS_MASTER_URI", "PG_ROS_NETWORK", "PG_ROS_NET_SET")
 LOOPBACK = ("127.", "::1", "::ffff:127.")
 
-needs_devel = pytest.mark.skipif(not (DEVEL / "setup.bash").exists(), reason=f"no catkin devel space at {DEVEL}")
+needs_devel = pytest.mark.usefixtures("ros_tier")  # the ROS tier (conftest.py): fails without it
 
 
 def ros_env(**extra: str) -> dict[str, str]:
@@ -169,7 +168,6 @@ def stack(tmp_path: Path) -> Iterator[tuple[dict[str, str], list[subprocess.Pope
 
 
 @needs_devel
-@pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="needs Linux /proc")
 def test_master_and_nodes_listen_on_loopback(stack):
     env, procs = stack
     master = xmlrpc.client.ServerProxy(env["ROS_MASTER_URI"])

@@ -3,7 +3,8 @@
 Discovered files: catkin_ws/src/<pkg>/test/*.test and tests/ros/*.test. Each runs as
 `source scripts/ros_env.sh && rostest --text FILE` (devel space sourced, the venv's Python first on PATH), bounded
 by ROSTEST_TIMEOUT_S. Test nodes named in those files are unittest scripts called rt_*.py (so that pytest itself
-does not collect them). Skipped, with the reason, when the catkin devel space was not built.
+does not collect them). Without the devel space or ROS's tools: a "ROS tier:" skip, which fails unless
+PG_SKIP_ROS_TIER=1 (conftest.py).
 """
 
 from __future__ import annotations
@@ -15,13 +16,12 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-DEVEL = Path(os.environ.get("PG_DEVEL_DIR", REPO / "catkin_ws" / "devel"))
 ROSTEST_TIMEOUT_S = 1500
 TEST_FILES = sorted((REPO / "catkin_ws" / "src").glob("*/test/*.test")) + sorted(
     (REPO / "tests" / "ros").glob("*.test"))
 
 
-@pytest.mark.skipif(not (DEVEL / "setup.bash").exists(), reason=f"no catkin devel space at {DEVEL} (make build)")
+@pytest.mark.usefixtures("ros_tier")
 @pytest.mark.parametrize("test_file", TEST_FILES, ids=[f"{f.parent.parent.name}/{f.name}" for f in TEST_FILES])
 def test_rostest(test_file: Path, tmp_path: Path) -> None:
     env = dict(os.environ, ROS_LOG_DIR=str(tmp_path / "log"), ROS_HOME=str(tmp_path / "ros_home"))

@@ -210,7 +210,7 @@ def test_a_device_this_machine_lacks_is_refused_before_anything_is_written(tmp_p
     import torch
 
     if device == "cuda:7" and torch.cuda.device_count() > 7:
-        pytest.skip("this machine has eight CUDA devices")
+        pytest.skip("opt-in: this machine has eight CUDA devices (the test needs a missing cuda:7)")
     out = tmp_path / "run"
     assert main(["train", "--stage", "grasp-agnostic", "--out", str(out), "--device", device]) == 2
     assert f"--device {device!r}" in capsys.readouterr().err and not out.exists()
@@ -220,7 +220,7 @@ def test_a_cuda_run_checkpoints_loadable_on_the_cpu(tmp_path):
     import torch
 
     if not torch.cuda.is_available():
-        pytest.skip("no CUDA device on this machine")
+        pytest.skip("opt-in: no CUDA device on this machine")
     _train(tmp_path, "grasp-agnostic", 2, "random-3")
     assert main(["train", "--stage", "grasp-agnostic", "--out", str(tmp_path), "--iterations", "3", "--scene",
                  "random-3", "--device", "cuda", "--replay-capacity", "32", "--max-actions", "4"]) == 0

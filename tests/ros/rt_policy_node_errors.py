@@ -18,7 +18,9 @@ from pg_msgs.srv import Infer
 from pg_rostest import wait_service
 from std_msgs.msg import Header
 
-MODELS = Path(__file__).resolve().parents[2] / "catkin_ws" / "src" / "pg_policy" / "models"
+from pg_core.resources import shipped_models
+
+MODELS = shipped_models()
 
 
 def start(policy: str, name: str) -> subprocess.Popen:

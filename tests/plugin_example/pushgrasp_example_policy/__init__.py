@@ -29,7 +29,7 @@ from typing import Protocol
 import numpy as np
 
 from pg_core.geometry import Geometry, load
-from pg_core.heightmap import Heightmap
+from pg_core.heightmap import OBJECT_HEIGHT_M, Heightmap, rotation_step
 from pg_core.target_mask import MIN_VISIBLE_CELLS, target_mask
 from pg_policy.decision.decision import Decision, action_pose
 from pg_policy.policies.policy import PolicyOptions
@@ -38,7 +38,6 @@ __all__ = ["CentroidGraspPolicy"]
 
 MIN_GRASP_CELLS = 60  # target cells needed to grasp (2.4 cm^2 at 0.002 m/cell); fewer: push from beside
 GRASPS_BEFORE_PUSH = 2  # failed grasps in a row after which the next action pushes the target free
-OBJECT_HEIGHT_M = 0.008  # cells higher than this hold an object
 NEIGHBOUR_RADIUS_M = 0.06  # object cells within this distance of the target's centroid count as its neighbours
 PUSH_GAP_M = 0.005  # gap between the closed fingers and the target's edge at the push start
 MAX_BACKOFF_M = 0.04  # how much farther back the push start may move to find a free cell
@@ -123,7 +122,7 @@ class CentroidGraspPolicy:
         centre = pts.mean(axis=0)
         if angle is None:
             angle = self._away_from_neighbours(hm, region, centre)
-        step = 2.0 * math.pi / self.rotations
+        step = rotation_step(self.rotations)
         first = nearest_rotation(angle, self.rotations)
         order = sorted(range(self.rotations), key=lambda r: abs(math.remainder(r * step - angle, 2.0 * math.pi)))
         travel_cells = max(self.prims.push_length - self.clearance_m, 0.0) / hm.resolution
@@ -209,5 +208,5 @@ def principal_axes(rows: np.ndarray, cols: np.ndarray) -> tuple[np.ndarray, np.n
 def nearest_rotation(angle: float, rotations: int, symmetric: bool = False) -> int:
     """The rotation index r in [0, rotations) whose yaw r * 2 pi / rotations is nearest `angle` (rad); symmetric
     (a parallel jaw's closing axis: r and r + rotations / 2 are the same grasp): the one in [0, rotations / 2)."""
-    r = int(round(angle / (2.0 * math.pi / rotations))) % rotations
+    r = int(round(angle / rotation_step(rotations))) % rotations
     return r % (rotations // 2) if symmetric and rotations % 2 == 0 else r

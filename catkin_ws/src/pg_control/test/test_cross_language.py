@@ -27,7 +27,7 @@ REPO = Path(__file__).resolve().parents[4]
 DEVEL = Path(os.environ.get("PG_DEVEL_DIR", REPO / "catkin_ws" / "devel"))
 CLI = DEVEL / "lib" / "pg_control" / "pg_control_kinematics"
 
-pytestmark = pytest.mark.skipif(not CLI.exists(), reason=f"{CLI} not built (make build, or set PG_DEVEL_DIR)")
+pytestmark = pytest.mark.skipif(not CLI.exists(), reason=f"ROS tier: {CLI} not built (make setup, or set PG_DEVEL_DIR)")
 
 
 def _run(lines: list[str]) -> list[str]:

@@ -42,7 +42,7 @@ Stats timeRuns(int runs, const std::function<void()>& fn) {
 int main(int argc, char** argv) {
   const int runs = argc > 1 ? std::max(1, std::atoi(argv[1])) : 50;
   const std::string path =
-      argc > 2 ? argv[2] : std::string(PG_POLICY_SOURCE_DIR "/../pg_description/config/workspace.yaml");
+      argc > 2 ? argv[2] : std::string(PG_WORKSPACE_YAML);  // pg_description's, as the package exports it
   pg_policy::HeightmapProjector projector(
       pg_policy::ProjectorConfig::fromWorkspace(pg_core::WorkspaceConfig::fromFile(path)));
 

@@ -31,7 +31,6 @@ def two_nodes(object_store_bytes: int) -> Iterator[tuple[Any, Any]]:
     """(cluster, worker node): a head and a worker node with one CPU each (ray.cluster_utils.Cluster, each its own
     raylet), token authentication on, shut down on exit. The calling process is not connected: code under test
     connects with `cluster.address`."""
-    pytest.importorskip("ray")
     from ray.cluster_utils import Cluster
 
     from pg_policy.cluster.ray_session import use_token_auth

@@ -7,8 +7,9 @@ import math
 import numpy as np
 import pytest
 
-pg_msgs = pytest.importorskip("pg_msgs.msg", reason="pg_msgs not built/sourced (make build; scripts/ros_env.sh)")
-rosbag = pytest.importorskip("rosbag")
+pg_msgs = pytest.importorskip("pg_msgs.msg", reason="ROS tier: pg_msgs not built or not sourced (make setup; "
+                                                      "source scripts/ros_env.sh)")
+rosbag = pytest.importorskip("rosbag", reason="ROS tier: rosbag not importable (make setup installs ROS)")
 
 from pg_conversions import heightmap_msg  # noqa: E402
 from pg_core.heightmap import Heightmap  # noqa: E402

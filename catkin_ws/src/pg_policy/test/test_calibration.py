@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
 from pg_core.geometry import load
+from pg_core.resources import camera_calibration
 from pg_policy.perception.calibration import CalibrationError, load_extrinsics
 
-SHIPPED = Path(__file__).resolve().parents[2] / "pg_description" / "config" / "camera_calibration.yaml"
+SHIPPED = camera_calibration()
 
 
 def test_shipped_calibration_is_the_sim_camera():

@@ -49,6 +49,12 @@ def _plan(hm: Heightmap, params: HeuristicParams | None = None, tabu=(), last_se
     return planner, target, act
 
 
+def _valid_or_none(planner: HeuristicPlanner, act) -> bool:
+    """An optional action of the planner (push_of, grasp_of) is None or a primitive at a rotation and map cell."""
+    return act is None or (act.primitive in ("grasp", "push") and 0 <= act.rotation < planner.rotations
+                           and 0 <= act.row < N and 0 <= act.col < N)
+
+
 # two target-coloured objects in opposite corners: the mask's mean lies between them, and the window examined
 # around it (half-size 0.10 m) holds no target cell; the others stand around each piece so no grasp is free
 SPLIT = [(-0.17, -0.17, CUBE, CUBE, "green"), (0.17, 0.17, CUBE, CUBE, "green")] + [
@@ -78,9 +84,11 @@ def test_a_target_in_pieces_far_apart_is_planned_on_its_largest_piece():
 
 def test_a_boxed_in_target_in_pieces_gives_an_action_not_an_error():
     planner, target, act = _plan(_hm(SPLIT))
-    planner.push_of(_hm(SPLIT), target), planner.grasp_of(_hm(SPLIT), target)  # must not raise
+    assert _valid_or_none(planner, planner.push_of(_hm(SPLIT), target))  # the training guidance: no error either
+    assert _valid_or_none(planner, planner.grasp_of(_hm(SPLIT), target))
     for n_pushes in (0, 10):  # also through the declutter rule
-        planner.plan(_hm(SPLIT), target, [], None, np.random.default_rng(1), n_pushes)
+        act = planner.plan(_hm(SPLIT), target, [], None, np.random.default_rng(1), n_pushes)
+        assert act is not None and _valid_or_none(planner, act) and act.why, n_pushes
 
 
 @pytest.mark.parametrize("blocks", [
@@ -95,9 +103,11 @@ def test_a_boxed_in_target_in_pieces_gives_an_action_not_an_error():
 ])
 def test_degenerate_scenes_give_an_action(blocks):
     hm = _hm(blocks)
-    planner, target, _ = _plan(hm)
-    planner.push_of(hm, target), planner.grasp_of(hm, target)  # the training guidance must not raise either
-    _plan(hm, last_seen=np.array([0.0, 0.0]))
+    planner, target, _ = _plan(hm)  # a valid action (asserted by _plan)
+    assert _valid_or_none(planner, planner.push_of(hm, target))  # the training guidance: no error either
+    assert _valid_or_none(planner, planner.grasp_of(hm, target))
+    _, _, act = _plan(hm, last_seen=np.array([0.0, 0.0]))  # also when searching where the target was last seen
+    assert act.why
 
 
 def test_min_target_cells_zero_with_an_empty_mask():

@@ -136,7 +136,7 @@ def test_help_shows_the_policy_defaults_and_export_offers_only_what_a_model_carr
     parser = argparse.ArgumentParser()
     options.add_arguments(parser)
     text = " ".join(parser.format_help().split())
-    assert f"goal-agnostic over every object (default: {MIN_VISIBLE_CELLS})" in text
+    assert f"hidden, searched for where it was last seen (default: {MIN_VISIBLE_CELLS})" in text
     assert "(default: the model's own)" in text  # the model options
     export = argparse.ArgumentParser()
     options.add_arguments(export, model_only=True)

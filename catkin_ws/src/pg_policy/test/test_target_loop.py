@@ -73,29 +73,35 @@ class Executor:
 
 
 class Policy:
+    """Decides `primitive` at cell (110, 110), each time at the next rotation index (`repeat`: always rotation 4, so
+    that its pushes on an unchanged scene repeat a futile push); `seen` keeps the observations' targets, `searches`
+    their target memories."""
+
     name = "scripted"
     threshold = 0.5
 
-    def __init__(self, primitive: str = "grasp") -> None:
-        self.primitive, self.resets, self.seen = primitive, 0, []
+    def __init__(self, primitive: str = "grasp", repeat: bool = False) -> None:
+        self.primitive, self.repeat, self.resets, self.seen, self.searches = primitive, repeat, 0, [], []
 
     def reset(self, seed: int | None = None) -> None:
         self.resets += 1
 
     def act(self, obs) -> Decision:
         self.seen.append(obs.target)
-        return Decision(self.primitive, 4, 110, 110, 0.9, math.pi / 4, 0.0, 0.0, 0.02, 0.9)
+        self.searches.append(obs.search)
+        rot = 4 if self.repeat else len(self.seen) % 16
+        return Decision(self.primitive, rot, 110, 110, 0.9, rot * math.pi / 8, 0.0, 0.0, 0.02, 0.9)
 
     def q_maps(self) -> dict[str, np.ndarray]:
         return {}
 
 
-def make(script, primitive="grasp", alive=True):
+def make(script, primitive="grasp", alive=True, repeat=False):
     clock = Clock()
     source = Source(clock, alive)
     ex = Executor(clock, source, script)
     records = []
-    loop = TargetLoop(Policy(primitive), source, ex, clock, on_action=records.append,
+    loop = TargetLoop(Policy(primitive, repeat), source, ex, clock, on_action=records.append,
                       on_decision=lambda rec, shm: decided.append((rec, shm.stamp)))
     return loop, source, ex, records
 
@@ -127,6 +133,7 @@ def test_action_budget_stops_pushing():
     loop, _, ex, _ = make([(True, False, False)], primitive="push")
     res = loop.run("green", LoopLimits(max_actions=4))
     assert not res.success and res.pushes == 4 and len(ex.calls) == 4 and "budget" in res.message
+    assert res.termination == "max_actions"
 
 
 def test_repeated_refusals_end_the_call():

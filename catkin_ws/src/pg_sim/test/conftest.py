@@ -8,13 +8,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pybullet as p
 import pytest
 from scipy.spatial.transform import Rotation
 
 from pg_core.geometry import Geometry, load
 from pg_sim.robot.urdf_builder import ARM_LINKS, ARMS
-
-p = pytest.importorskip("pybullet")
 
 
 class BulletRobot:

@@ -63,7 +63,7 @@ def test_unknown_split_or_kind_is_refused():
     with pytest.raises(ValueError, match="unknown split"):
         object_ids("test")
     with pytest.raises(ValueError, match="unknown object kind"):
-        object_ids("train", ("thin", "spoon"))
+        object_ids("train", ("thin", "spork"))
 
 
 def blob_path_unchecked(index: int):

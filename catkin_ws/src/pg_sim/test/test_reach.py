@@ -17,8 +17,6 @@ from scipy.spatial.transform import Rotation
 from pg_sim.robot.kinematics import arm_branch, down_pose, tcp_fk
 from pg_sim.robot.urdf_builder import ARMS
 
-p = pytest.importorskip("pybullet")
-
 POS_TOL = 2e-3  # m
 ANG_TOL = 0.02  # rad
 XY = (-0.224, -0.112, 0.0, 0.112, 0.224)

@@ -6,10 +6,8 @@ import pytest
 from pg_core import palette
 from pg_core.target_mask import (
     WINDOWS,
-    TargetNotVisible,
     dilate_mask,
     hsv_window,
-    require_visible,
     target_mask,
 )
 
@@ -70,18 +68,6 @@ def test_invalid_cells_and_speckle_are_dropped():
     expected[11:20, 10:20] = True
     assert np.array_equal(m, expected)
     assert target_mask(img, valid, "green", min_blob_cells=0)[30, 30]
-
-
-def test_require_visible():
-    m = np.zeros((10, 10), bool)
-    m[:5, :5] = True
-    assert require_visible(m, min_cells=25) is m
-    with pytest.raises(TargetNotVisible, match="20 matching heightmap cells, at least 21"):
-        require_visible(m & ~np.eye(10, dtype=bool), min_cells=21)
-    m[0, 0] = False
-    with pytest.raises(TargetNotVisible, match="24 matching"):
-        require_visible(m)  # default: 25 cells
-    assert issubclass(TargetNotVisible, ValueError)
 
 
 def test_dilate_mask_is_a_disc():
@@ -163,8 +149,7 @@ def test_target_iou_on_shipped_scene(world, name):
 def test_target_iou_on_random_scene(random_views, seed):
     hm, labels, _, target = random_views(seed)
     truth = labels == target
-    if truth.sum() < 25:
-        pytest.skip(f"seed {seed}: target buried ({truth.sum()} cells visible)")
+    assert truth.sum() >= 25, f"seed {seed}: target buried ({truth.sum()} cells visible): choose another seed"
     iou = _iou(target_mask(hm.color, hm.valid, palette.TARGET_COLOR), truth)
     assert iou >= 0.9, f"random-10 seed {seed}: IoU {iou:.3f}"
 

@@ -13,14 +13,13 @@ import subprocess
 import xml.etree.ElementTree as ET
 
 import numpy as np
+import pybullet as p
 import pytest
 from scipy.spatial.transform import Rotation
 
 from pg_sim.robot import urdf_builder
 from pg_sim.robot.kinematics import arm_base_pose, dh_fk, rpy_matrix
 from pg_sim.robot.urdf_builder import ARM_LINKS, ARMS, build_urdf
-
-p = pytest.importorskip("pybullet")
 
 POS_TOL = 1e-3  # m
 ANG_TOL = 0.01  # rad
@@ -169,19 +168,24 @@ def test_masses_and_inertias(urdf_xml, urdf_geometry):
         assert masses[f"{arm}_tool0"] < 0.01 and masses[f"{arm}_gripper_tcp"] < 0.01
 
 
-@pytest.mark.skipif(shutil.which("check_urdf") is None, reason="check_urdf (Debian liburdfdom-tools) not installed")
 def test_check_urdf_tool(urdf_geometry):
+    assert shutil.which("check_urdf"), "check_urdf not found: Debian liburdfdom-tools (scripts/apt-packages.txt)"
     out = subprocess.run(["check_urdf", str(urdf_geometry.robot.urdf)], capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stdout + out.stderr
     assert "Successfully Parsed" in out.stdout
     assert "root Link: world" in out.stdout
 
 
-def test_urdf_parser_py(urdf_geometry):
-    urdf = pytest.importorskip("urdf_parser_py.urdf")
-    robot = urdf.URDF.from_xml_string(urdf_geometry.robot.urdf.read_text())
-    assert robot.get_root() == "world"
-    assert len([j for j in robot.joints if j.type != "fixed"]) == 16
+def test_the_kinematic_tree_read_as_plain_xml(urdf_geometry):
+    # a reader independent of urdfdom and PyBullet: one tree rooted at `world`, 16 moving joints (2 x 6 arm joints,
+    # 2 x 2 fingers)
+    root = ET.fromstring(urdf_geometry.robot.urdf.read_text())
+    links = {link.get("name") for link in root.findall("link")}
+    joints = root.findall("joint")
+    children = [j.find("child").get("link") for j in joints]
+    assert len(children) == len(set(children)) and set(children) <= links
+    assert links - set(children) == {"world"}
+    assert len([j for j in joints if j.get("type") != "fixed"]) == 16
 
 
 # ---------------------------------------------------------------------------------------------------- PyBullet

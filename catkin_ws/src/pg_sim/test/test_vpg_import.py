@@ -24,7 +24,7 @@ ALL_CASES = [*range(1, 10), *range(11, 15)]
 def _case(n: int) -> Path:
     path = CASES / f"case{n}.txt"
     if not path.is_file():
-        pytest.skip(f"reference case {path} not available")
+        pytest.skip(f"reference data: reference case {path} not available")
     return path
 
 
@@ -77,7 +77,7 @@ def test_household_case_target_recoloured_green() -> None:
 def _sdf_cases() -> dict[str, list[tuple[str, list[float]]]]:
     path = CASES / "gazebo_world.sdf.txt"
     if not path.is_file():
-        pytest.skip(f"{path} not available")
+        pytest.skip(f"reference data: {path} not available")
     parts = re.split(r"<!--\s*[Cc]ase\s*(\d+)\s*-->", path.read_text())
     out = {}
     for i in range(1, len(parts), 2):

@@ -211,7 +211,7 @@ def test_gazebo_workspace_centre_is_derived_from_the_sdf_copies_of_case_2_to_6()
     swapped, then turned (x, -y)) plus VPG's centre is the Gazebo workspace centre, to 1 mm."""
     sdf_path = CASES / "gazebo_world.sdf.txt"
     if not sdf_path.is_file():
-        pytest.skip(f"{sdf_path} not available")
+        pytest.skip(f"reference data: {sdf_path} not available")
     parts = re.split(r"<!--\s*[Cc]ase\s*(\d+)\s*-->", sdf_path.read_text())
     sdf = {int(parts[i]): np.array([[float(v) for v in pose.split()[:2]] for pose in
                                     re.findall(r"<pose>(.*?)</pose>", parts[i + 1])]) for i in range(1, len(parts), 2)}

@@ -1,13 +1,34 @@
 """Heights of the grasp and push primitives from a heightmap (DESIGN.md section 4), shared by sim and policy.
 
 Heights are TCP (fingertip centre) z in `world`, metres. Heightmap heights are metres above the workspace zmin.
+
+The grasp height (DESIGN.md section 4, the primitive's contract) comes from the cell's height (`grasp_z_for_height`:
+section 4's rule, the low-object rule below 2 cm) unless the cell lies in a pit of an object along the jaw's closing
+line (`rim_pit`: the floor of a bowl, a cup or a plate's well next to its wall); there the fingertips go below the
+wall's top and above the floor (`grasp_z` with the rotation's yaw).
 """
 
 from __future__ import annotations
 
+import math
+from functools import lru_cache
+from typing import NamedTuple
+
 import numpy as np
 
 from pg_core.geometry import PrimitiveSpec
+from pg_core.heightmap import Heightmap
+
+PIT_TABLE_M = 0.004  # cells lower than this (m above the table) are the table, not an object's floor
+PIT_CHROMA_TOL = 0.03  # cells of one object: chromaticity r, g, b / (r + g + b) within this of the centre cell's
+
+
+class RimPit(NamedTuple):
+    """A pit along the jaw line: the floor (m, the centre cell) and the top of the lower wall the jaw straddles (m),
+    both in `world` z."""
+
+    floor: float
+    rim: float
 
 
 def local_max(height: np.ndarray, row: int, col: int, half: int) -> float:
@@ -31,9 +52,105 @@ def grasp_z_for_height(h: float, prims: PrimitiveSpec) -> float:
     return max(h - prims.grasp_depth, prims.grasp_min_z)
 
 
-def grasp_z(height: np.ndarray, row: int, col: int, prims: PrimitiveSpec, zmin: float = 0.0) -> float:
-    """grasp_z_for_height of the height at the pixel (heightmap heights are above zmin)."""
+def _side_wall(h: np.ndarray, same: np.ndarray, centre: float, reach: int, wall: int, step: float) -> float | None:
+    """Top (m) of the wall on one side of the jaw line, or None.
+
+    h, same: heights (m) and same-object flags of the cells 1, 2, ... m from the centre along the side (beyond the
+    map: not the same object). The walk follows the centre's object up to `reach` cells; a wall is its highest
+    cell there standing at least `step` above the centre, thin: within `wall` cells beyond the first cell within
+    step / 2 of that top, the object ends or falls `step` below the top (a bowl's rim, not a block's flat top)."""
+    run = int(np.argmin(same)) if not same.all() else len(same)  # cells of the centre's object before it ends
+    n = min(run, reach)
+    if n == 0:
+        return None
+    top = float(h[:n].max())
+    if top < centre + step:
+        return None
+    j0 = int(np.argmax(h[:n] >= top - step / 2))
+    for k in range(j0 + 1, min(j0 + 1 + wall, len(h))):
+        if k >= run or h[k] <= top - step:
+            return top
+    return None
+
+
+@lru_cache(maxsize=64)
+def _line_offsets(yaw: float, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """(row, col) offsets (2, m) of the cells 1 .. m along (cos yaw, sin yaw) (side +1, row 0) and against it."""
+    k = np.arange(1, m + 1) * np.array([[1.0], [-1.0]])
+    return (np.rint(k * math.sin(yaw)).astype(np.int64), np.rint(k * math.cos(yaw)).astype(np.int64))
+
+
+def rim_pit(height: np.ndarray, row: int, col: int, yaw: float, resolution: float, prims: PrimitiveSpec,
+            zmin: float = 0.0, color: np.ndarray | None = None) -> RimPit | None:
+    """The pit the cell (row, col) lies in along the jaw's closing line at `yaw`, or None (then the cell's height
+    alone sets the grasp height).
+
+    The line runs through the cell centre along (cos yaw, sin yaw) (columns along x, rows along y), `grasp_rim_reach`
+    m to each side (half the open jaw). From the centre cell, which must belong to an object (at least PIT_TABLE_M
+    above the table), each side is walked over cells of the same object (not the table; colour within
+    PIT_CHROMA_TOL of the centre's when `color`, the (H, W, 3) colour heightmap, is given). The cell is in a pit
+    when one side meets a wall (its top at least `grasp_rim_step` above the centre, falling again within
+    `grasp_rim_wall` beyond it: a rim, not a plateau) and the other side meets a wall too or stays off the table
+    over the whole reach (a floor between walls, not an object's flank or a handle). `rim`: the lower of the walls
+    met."""
+    step, reach_m = prims.grasp_rim_step, prims.grasp_rim_reach
+    if step <= 0 or reach_m <= 0:
+        return None
+    rows, cols = height.shape
+    centre = float(height[row, col]) + zmin
+    if centre < PIT_TABLE_M:
+        return None
+    reach = int(math.ceil(reach_m / resolution - 1e-9))
+    if float(height[max(row - reach, 0):row + reach + 1, max(col - reach, 0):col + reach + 1].max()) + zmin \
+            < centre + step:
+        return None  # nothing within reach stands a step above the cell: no wall (most cells)
+    wall = max(int(math.ceil(prims.grasp_rim_wall / resolution - 1e-9)), 1)
+    dr, dc = _line_offsets(round(float(yaw), 9), reach + wall)  # (2, m): side +1 then side -1
+    rr, cc = row + dr, col + dc
+    inside = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
+    rr, cc = np.clip(rr, 0, rows - 1), np.clip(cc, 0, cols - 1)
+    h = height[rr, cc].astype(np.float64) + zmin
+    obj = inside & (h >= PIT_TABLE_M)
+    same = obj.copy()
+    if color is not None and np.shape(color)[:2] == height.shape:
+        c0 = np.asarray(color[row, col], dtype=np.float64)
+        c = np.asarray(color[rr, cc], dtype=np.float64)
+        chroma = c / np.maximum(c.sum(axis=-1, keepdims=True), 1.0)
+        same &= np.abs(chroma - c0 / max(float(c0.sum()), 1.0)).max(axis=-1) <= PIT_CHROMA_TOL
+    tops = [_side_wall(h[i], same[i], centre, reach, wall, step) for i in (0, 1)]
+    off_table = [bool(obj[i, :reach].all()) for i in (0, 1)]
+    walls = [t for t in tops if t is not None]
+    if not walls:
+        return None
+    if len(walls) == 1 and not off_table[1 if tops[0] is not None else 0]:
+        return None
+    return RimPit(centre, min(walls))
+
+
+def grasp_z(height: np.ndarray, row: int, col: int, prims: PrimitiveSpec, zmin: float = 0.0, *,
+            yaw: float | None = None, color: np.ndarray | None = None, resolution: float | None = None) -> float:
+    """Fingertip z (m) of a grasp at the pixel (heightmap heights are above zmin).
+
+    Without `yaw`: grasp_z_for_height of the pixel's height. With the grasp's `yaw` (rad; `resolution`, m per cell,
+    needed then; `color`: the (H, W, 3) colour heightmap, optional): where the pixel lies in a pit along the jaw
+    line (`rim_pit`: a bowl's floor or inner wall next to its rim, inside a cup, a plate's well), z = max(rim -
+    grasp_rim_depth, floor + grasp_rim_clearance): one finger inside the wall and one outside, the fingertips below
+    the rim and above the floor; elsewhere grasp_z_for_height of the pixel's height.
+    """
+    if yaw is not None:
+        if resolution is None:
+            raise ValueError("grasp_z: the jaw-line rule (yaw given) needs the heightmap resolution")
+        pit = rim_pit(height, row, col, yaw, resolution, prims, zmin, color)
+        if pit is not None:
+            return max(pit.rim - prims.grasp_rim_depth, pit.floor + prims.grasp_rim_clearance)
     return grasp_z_for_height(float(height[row, col]) + zmin, prims)
+
+
+def grasp_z_at(heightmap: Heightmap, row: int, col: int, prims: PrimitiveSpec, yaw: float | None = None) -> float:
+    """grasp_z on a Heightmap (its zmin, resolution and colour): the grasp height of the contract (DESIGN.md
+    section 4) for a grasp at cell (row, col) closing along `yaw` (rad)."""
+    return grasp_z(heightmap.height, row, col, prims, float(heightmap.bounds[2, 0]), yaw=yaw, color=heightmap.color,
+                   resolution=heightmap.resolution)
 
 
 def push_z(height: np.ndarray, row: int, col: int, prims: PrimitiveSpec, zmin: float = 0.0) -> float:

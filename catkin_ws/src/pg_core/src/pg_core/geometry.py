@@ -6,6 +6,7 @@ Raises FileNotFoundError for a missing file and ValueError (naming the key) for 
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import MISSING, dataclass
 from functools import lru_cache
@@ -15,9 +16,15 @@ from typing import Any
 import numpy as np
 import yaml
 
+from pg_core import resources
+
 CONFIG_ENV = "PG_WORKSPACE_CONFIG"
-CATKIN_SRC = Path(__file__).resolve().parents[3]  # catkin_ws/src: robot.urdf in the config is relative to it
-DEFAULT_CONFIG = CATKIN_SRC / "pg_description" / "config" / "workspace.yaml"
+
+
+def __getattr__(name: str) -> Any:
+    if name == "DEFAULT_CONFIG":  # pg_description's config/workspace.yaml, found when first asked for
+        return resources.geometry_config()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 @dataclass(frozen=True)
@@ -131,6 +138,15 @@ class PrimitiveSpec:
     grasp_low_heights: tuple[float, float] = (0.0, 0.0)
     grasp_low_fraction: float = 0.0
     grasp_low_min_z: float = 0.0
+    # Pits along the jaw line (pg_core.action_geometry.rim_pit / grasp_z with a yaw): where the grasp cell lies in an
+    # object's pit next to a wall standing grasp_rim_step above it (thin: it falls as much within grasp_rim_wall),
+    # within grasp_rim_reach along the closing line, the fingertip z is max(rim - grasp_rim_depth, floor +
+    # grasp_rim_clearance). Optional in the YAML; absent (grasp_rim_step 0) = the cell's height alone everywhere.
+    grasp_rim_depth: float = 0.0
+    grasp_rim_clearance: float = 0.0
+    grasp_rim_step: float = 0.0
+    grasp_rim_wall: float = 0.0
+    grasp_rim_reach: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -201,7 +217,7 @@ def _robot(raw: dict) -> RobotSpec:
         arms[name] = ArmSpec(name, _tuple(arm, "xyz", w, 3), _tuple(arm, "rpy", w, 3), _tuple(arm, "home", w, 6),
                              branch)
     return RobotSpec(
-        urdf=CATKIN_SRC / str(_get(sec, "urdf", "robot.")),
+        urdf=resources.package_file(str(_get(sec, "urdf", "robot."))),  # "<package>/<path inside it>"
         dh_d=_tuple(dh, "d", "robot.dh.", 6),
         dh_a=_tuple(dh, "a", "robot.dh.", 6),
         dh_alpha=_tuple(dh, "alpha", "robot.dh.", 6),
@@ -217,7 +233,7 @@ def _robot(raw: dict) -> RobotSpec:
 
 def _check_low_grasp(prims: PrimitiveSpec) -> None:
     """ValueError naming the key unless the low-object grasp keys hold 0 <= lo <= hi, a fraction in [0, 1] and a
-    z >= 0."""
+    z >= 0, and the jaw-line pit keys (grasp_rim_*) finite lengths >= 0."""
     lo, hi = prims.grasp_low_heights
     checks = {
         "grasp_low_heights": (0.0 <= lo <= hi, f"must be [lo, hi] heights with 0 <= lo <= hi (m), got [{lo}, {hi}]"),
@@ -227,6 +243,10 @@ def _check_low_grasp(prims: PrimitiveSpec) -> None:
         "grasp_low_min_z": (isinstance(prims.grasp_low_min_z, int | float) and prims.grasp_low_min_z >= 0.0,
                             f"must be a height >= 0 m, got {prims.grasp_low_min_z!r}"),
     }
+    for key in ("grasp_rim_depth", "grasp_rim_clearance", "grasp_rim_step", "grasp_rim_wall", "grasp_rim_reach"):
+        value = getattr(prims, key)
+        checks[key] = (isinstance(value, int | float) and not isinstance(value, bool) and 0.0 <= value < math.inf,
+                       f"must be a length >= 0 m, got {value!r}")
     for key, (ok, what) in checks.items():
         if not ok:
             raise ValueError(f"geometry config: 'primitives.{key}' {what}")
@@ -277,5 +297,5 @@ def _load_cached(path: str) -> Geometry:
 
 def load(path: str | Path | None = None) -> Geometry:
     """The geometry config at `path`, else $PG_WORKSPACE_CONFIG, else the package's config/workspace.yaml."""
-    chosen = path or os.environ.get(CONFIG_ENV) or DEFAULT_CONFIG
+    chosen = path or os.environ.get(CONFIG_ENV) or resources.geometry_config()
     return _load_cached(str(Path(chosen).resolve()))

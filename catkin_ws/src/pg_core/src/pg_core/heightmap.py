@@ -1,17 +1,26 @@
-"""Reference (numpy) projection of a point cloud onto the top-down workspace heightmap.
+"""The heightmap convention, the one place for it, and the reference (numpy) projection of a point cloud onto the
+top-down workspace heightmap.
 
 Convention (VPG/ravens, DESIGN.md section 3): col = floor((x - xmin)/res), row = floor((y - ymin)/res);
 each cell keeps its HIGHEST point (explicit per-cell max), height = z - zmin clipped at >= 0, empty cells are 0 and
-marked invalid; the colour of a cell is the colour of its highest point.
+marked invalid; the colour of a cell is the colour of its highest point. Cell (row, col) stands for its centre
+(`pixel_to_world`, `cell_centres`, `cell_centre_axes`; back: `world_to_pixel`). Rotation index r of R means gripper
+yaw r * 2 pi / R about world +z (`rotation_yaw`, `rotation_step`). Cells higher than OBJECT_HEIGHT_M hold an object.
+A re-rank of a Q map examines its best TOP_K cells.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from pg_core.geometry import Geometry
+
+OBJECT_HEIGHT_M = 0.008  # cells higher than this (m above the table) hold an object; lower ones are table
+TOP_K = 200  # candidate cells a re-rank walks per map and decision (the best TOP_K of the primitive's region)
 
 
 @dataclass(frozen=True)
@@ -94,17 +103,38 @@ def from_camera_cloud(
     return project(world_pts, colors, geometry.workspace.bounds, geometry.heightmap.resolution)
 
 
-def pixel_to_world(row: int, col: int, bounds: np.ndarray, resolution: float) -> tuple[float, float]:
-    """Cell centre (x, y) in `world` of heightmap cell (row, col)."""
-    return float(bounds[0, 0] + (col + 0.5) * resolution), float(bounds[1, 0] + (row + 0.5) * resolution)
+def _centre(index: Any, low: float, resolution: float) -> Any:
+    """Centre coordinate of cell index `index` (scalar or array) along an axis starting at `low`."""
+    return low + (index + 0.5) * resolution
+
+
+def pixel_to_world(row: float, col: float, bounds: np.ndarray, resolution: float) -> tuple[float, float]:
+    """Cell centre (x, y) in `world` of heightmap cell (row, col) (fractional indices: the same affine map)."""
+    return float(_centre(col, bounds[0, 0], resolution)), float(_centre(row, bounds[1, 0], resolution))
 
 
 def cell_centres(rows: np.ndarray, cols: np.ndarray, bounds: np.ndarray, resolution: float) -> np.ndarray:
     """(N, 2) cell centres (x, y) in `world` of the cells (rows[i], cols[i]); pixel_to_world for many cells."""
     rows, cols = np.asarray(rows), np.asarray(cols)
-    return np.stack([bounds[0, 0] + (cols + 0.5) * resolution, bounds[1, 0] + (rows + 0.5) * resolution], axis=-1)
+    return np.stack([_centre(cols, bounds[0, 0], resolution), _centre(rows, bounds[1, 0], resolution)], axis=-1)
+
+
+def cell_centre_axes(rows: int, cols: int, bounds: np.ndarray, resolution: float) -> tuple[np.ndarray, np.ndarray]:
+    """(xs (cols,), ys (rows,)): the x of each column's and the y of each row's cell centres in `world`."""
+    return _centre(np.arange(cols), bounds[0, 0], resolution), _centre(np.arange(rows), bounds[1, 0], resolution)
 
 
 def world_to_pixel(x: float, y: float, bounds: np.ndarray, resolution: float) -> tuple[int, int]:
     """(row, col) of the cell holding world point (x, y); may fall outside the map."""
     return int(np.floor((y - bounds[1, 0]) / resolution)), int(np.floor((x - bounds[0, 0]) / resolution))
+
+
+def rotation_yaw(rotation: Any, rotations: int) -> Any:
+    """Gripper yaw (rad, counter-clockwise about world +z) of rotation index `rotation` (an int or an array of them)
+    of `rotations` (R): rotation * 2 pi / R."""
+    return rotation * 2 * math.pi / rotations
+
+
+def rotation_step(rotations: int) -> float:
+    """The yaw (rad) between neighbouring rotation indices of `rotations`: 2 pi / R."""
+    return 2 * math.pi / rotations

@@ -31,7 +31,7 @@ ACHROMATIC_SAT = 40.0  # palette colours less saturated than this are matched on
 VALUE_MIN_FRACTION = 0.5  # cells darker than this fraction of the palette V are rejected
 VALUE_FLOOR = 40.0  # below this V, hue and saturation are unreliable
 MIN_BLOB_CELLS = 5  # matching regions smaller than this (cells) are dropped as speckle
-MIN_VISIBLE_CELLS = 25  # require_visible default: 25 cells = 1 cm^2 at 0.002 m resolution
+MIN_VISIBLE_CELLS = 25  # the target counts as visible from 25 cells = 1 cm^2 at 0.002 m resolution
 
 
 class TargetNotVisible(ValueError):
@@ -152,14 +152,6 @@ def target_mask(color: np.ndarray, valid: np.ndarray, name: str, min_blob_cells:
         keep = stats[:, cv2.CC_STAT_AREA] >= min_blob_cells
         keep[0] = False  # background label
         mask = keep[labels]
-    return mask
-
-
-def require_visible(mask: np.ndarray, min_cells: int = MIN_VISIBLE_CELLS, name: str = "target") -> np.ndarray:
-    """Return `mask` unchanged if it holds at least `min_cells` cells, else raise TargetNotVisible (a ValueError)."""
-    n = int(np.count_nonzero(mask))
-    if n < min_cells:
-        raise TargetNotVisible(f"{name} not visible: {n} matching heightmap cells, at least {min_cells} needed")
     return mask
 
 

@@ -1,5 +1,6 @@
-"""`pushgrasp eval`: run the evaluation protocol (pg_policy.evaluation.trials) for a policy on scenes and write the
-results (pg_policy.evaluation.report). Heavy modules (pybullet, torch) are imported inside the handler.
+"""`pushgrasp eval`: run the evaluation protocol (pg_policy.evaluation.trials) for a policy on scenes through the
+evaluation runner (pg_policy.evaluation.runner: in this process or on Ray) and write the results
+(pg_policy.evaluation.report). Heavy modules (pybullet, torch) are imported inside the handler.
 
 Errors (unknown policy, unknown scene, missing model file, a training seed) end the command with status 2 and one
 line on stderr (pg_policy.cli.main.main). An error inside a trial (the policy or the simulator raising, a worker
@@ -19,9 +20,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-from pg_policy.evaluation.trials import DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW, DEFAULT_SEED, MIN_EVAL_SEED
+from pg_core.seeds import MIN_EVAL_SEED
+from pg_policy.evaluation.trials import DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW, DEFAULT_SEED
 from pg_policy.policies import options
-from pg_policy.target_loop.limits import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
+from pg_policy.target_loop.episode import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
 from pg_sim.world.sim_mode import DEFAULT_SIM_MODE, SIM_MODES
 
 
@@ -75,85 +77,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ev.set_defaults(run=_run)
 
 
-# -- worker processes (each holds one policy; every trial gets a fresh SimEnv) ----------------------------------
-_WORKER: dict[str, Any] = {}
-
-
-def worker_threads(workers: int, cpus: int | None = None) -> int:
-    """CPU threads for torch and OpenCV in each of `workers` processes: the machine's CPUs shared out, at least 1.
-    Without it every worker takes all CPUs and they slow each other down (seen on a 16-core GPU machine)."""
-    return max(1, (cpus or os.cpu_count() or 1) // max(1, workers))
-
-
-def model_blobs(paths: Any) -> tuple[tuple[str, bytes], ...]:
-    """(file name, bytes) of each model file, for workers on other machines."""
-    return tuple((Path(p).name, Path(p).read_bytes()) for p in paths)
-
-
-def local_models(opts: Any, blobs: tuple[tuple[str, bytes], ...]) -> Any:
-    """`opts` with its model files as they are here, or, when one is missing on this machine (a cluster node
-    without the driver's files), with the copies in `blobs` written to a fresh temporary folder."""
-    from dataclasses import replace
-
-    if not blobs or all(Path(p).is_file() for p in opts.models):
-        return opts
-    import tempfile
-
-    folder = Path(tempfile.mkdtemp(prefix="pg_models_"))
-    for name, data in blobs:
-        (folder / name).write_bytes(data)
-    return replace(opts, models=tuple(folder / name for name, _ in blobs))
-
-
-def _worker_init(policy: str, opts: Any, threads: int, blobs: tuple[tuple[str, bytes], ...] = ()) -> None:
-    import cv2
-    import torch
-
-    from pg_policy.policies.registry import make_policy
-
-    torch.set_num_threads(threads)
-    cv2.setNumThreads(threads)
-    opts = local_models(opts, blobs)
-    _WORKER["policy"] = make_policy(policy, opts)
-
-
-def _worker_trial(index: int, name: str, seed: int, plan: Any) -> tuple[int, Any]:
-    from functools import partial
-
-    from pg_policy.environment.sim_env import SimEnv
-    from pg_policy.evaluation.trials import run_fresh
-
-    return index, run_fresh(partial(SimEnv, sim_mode=plan.sim_mode), _WORKER["policy"], name, seed, plan)
-
-
-def run_trials(policy: str, opts: Any, plan: Any, jobs: list[tuple[str, int]], workers: int,
-               on_trial: Any = None, address: str | None = None, on_start: Any = None) -> list[Any]:
-    """Records of `jobs` ((scene, seed) pairs of `plan`) in job order: in this process (`workers` 1, no `address`)
-    or on Ray actors (pg_policy.evaluation.ray_trials; `workers` 0 with an address = one per cluster CPU).
-    `on_trial(record)` is called as each finishes. Every trial runs in a fresh SimEnv, so the records do not depend
-    on `workers`. A trial that raises, or whose worker dies twice, is an error record; the others are kept."""
-    if workers == 1 and address is None:
-        from functools import partial
-
-        from pg_policy.environment.sim_env import SimEnv
-        from pg_policy.evaluation.trials import run_fresh
-        from pg_policy.policies.registry import make_policy
-
-        local = make_policy(policy, opts)
-        out = []
-        for name, seed in jobs:
-            out.append(run_fresh(partial(SimEnv, sim_mode=plan.sim_mode), local, name, seed, plan))
-            if on_trial is not None:
-                on_trial(out[-1])
-        return out
-    from pg_policy.evaluation.ray_trials import run_on_ray
-
-    threads = worker_threads(workers) if address is None else 1
-    blobs = model_blobs(opts.models) if address is not None else ()  # the driver's models travel to the nodes
-    return run_on_ray(jobs, plan, workers, _worker_trial, _worker_init, (policy, opts, threads, blobs), on_trial,
-                      address=address, on_start=on_start)
-
-
 def _run(args: argparse.Namespace) -> int:
     from dataclasses import asdict, replace
 
@@ -164,10 +87,12 @@ def _run(args: argparse.Namespace) -> int:
     from pg_policy.evaluation.errors import reason_lines
     from pg_policy.evaluation.journal import TrialJournal, file_digests
     from pg_policy.evaluation.report import git_commit, write_results
+    from pg_policy.evaluation.runner import run_trials
     from pg_policy.evaluation.trials import EvalPlan, Limits, check_seed, expand_scenes
     from pg_policy.models.device import check_device
     from pg_policy.policies.policy import PolicyOptions
     from pg_policy.policies.registry import make_policy
+    from pg_policy.target_loop.episode import ERROR, TARGET_LOST
 
     check_seed(args.seed, args.allow_train_seeds)
     check_device(args.device)
@@ -228,8 +153,9 @@ def _run(args: argparse.Namespace) -> int:
         done.append(rec)
         graspers = [t.grasp_success for t in done if t.grasp_success is not None]
         gs = f"{100 * sum(graspers) / len(graspers):.0f}%" if graspers else "n/a"
-        n_err = sum(t.termination == "error" for t in done)
-        errs = f" errors {n_err}" if n_err else ""
+        n_err = sum(t.termination == ERROR for t in done)
+        n_lost = sum(t.termination == TARGET_LOST for t in done)
+        errs = (f" errors {n_err}" if n_err else "") + (f" lost {n_lost}" if n_lost else "")
         rate = 60 * ran[0] / max(1e-9, time.perf_counter() - t0)
         bar.set_postfix_str(f"{rate:.1f} trials/min C {100 * sum(t.completed for t in done) / len(done):.0f}% "
                             f"GS {gs}{errs} last {rec.scene}")
@@ -252,7 +178,7 @@ def _run(args: argparse.Namespace) -> int:
     if reason_lines(trials):
         import sys
 
-        print(f"{sum(t.termination == 'error' for t in trials)} of {len(trials)} trials ended in an error: see "
+        print(f"{sum(t.termination == ERROR for t in trials)} of {len(trials)} trials ended in an error: see "
               f"{paths['md']} and the trials' error / error_at / error_trace in {paths['json']}", file=sys.stderr)
     print(f"wrote {', '.join(str(p) for p in paths.values())}")
     return 0

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pg_core.seeds import MIN_EVAL_SEED
 from pg_policy.policies import options
 
 
@@ -19,8 +20,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "registered policy or plugin (heuristic, ...; `pushgrasp policies`) (default: lite, the "
                         "shipped model)")
     p.add_argument("--scene", required=True, help="scene name (see `pushgrasp scene list`), YAML file, or random-N")
-    p.add_argument("--seed", type=int, default=1_000_000,
-                   help="seed for generated scenes (random-N, novel-N, ...) and the policy (default 1000000)")
+    p.add_argument("--seed", type=int, default=MIN_EVAL_SEED,
+                   help=f"seed for generated scenes (random-N, novel-N, ...) and the policy (default {MIN_EVAL_SEED}, "
+                        "the first evaluation seed)")
     p.add_argument("--trial", action="store_true",
                    help="the scene of `pushgrasp eval`'s trial SEED: a fixed scene (packed/caseNN, household/caseNN, "
                         "YAML) moved by the protocol's jitter drawn from the seed (1 cm, 11.25 deg), so a trial of "

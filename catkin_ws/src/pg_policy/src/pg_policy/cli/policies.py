@@ -14,15 +14,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from pg_core.resources import shipped_models
     from pg_policy.decision.rules.registry import rule_classes
-    from pg_policy.policies.model_files import SHIPPED_MODELS
     from pg_policy.policies.registry import ENTRY_POINT_GROUP, policies
 
     print(f"policies (built-in, and plugins of the entry-point group {ENTRY_POINT_GROUP}):")
     for name, entry in policies().items():
         print(f"  {name:<20} {entry.origin:<20} {entry.target}")
-    models = sorted(p.name for p in SHIPPED_MODELS.iterdir() if (p / "grasp.pt").is_file())
-    print(f"shipped models (--policy NAME; {SHIPPED_MODELS}):")
+    shipped = shipped_models()
+    models = sorted(p.name for p in shipped.iterdir() if (p / "grasp.pt").is_file())
+    print(f"shipped models (--policy NAME; {shipped}):")
     for name in models:
         print(f"  {name}")
     print("test-time rules (a model's `rules` list, or --rules name[:arg],...):")

@@ -5,7 +5,8 @@ heightmap's (H, W) cells (row along y, column along x, DESIGN.md section 3). The
 the grasp region (the target mask, optionally grown by `grasp_radius_m`); the push among the push region (by default
 the target mask grown by ``PUSH_RADIUS_M``: a goal-conditioned push has to start near the target to free it).
 The chosen cell becomes a TCP pose in `world`: (x, y) the cell centre, z from the local heights
-(:func:`pg_core.action_geometry.grasp_z` / :func:`~pg_core.action_geometry.push_z`), yaw from the rotation.
+(:func:`pg_core.action_geometry.grasp_z_at` with the rotation's yaw: the jaw line's pits included /
+:func:`~pg_core.action_geometry.push_z`), yaw from the rotation.
 Argmax ties go to the first maximum in C order (lowest rotation, then row, then column).
 """
 
@@ -16,9 +17,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pg_core.action_geometry import grasp_z, push_z
+from pg_core.action_geometry import grasp_z_at, push_z
 from pg_core.geometry import PrimitiveSpec
-from pg_core.heightmap import Heightmap, pixel_to_world
+from pg_core.heightmap import Heightmap, pixel_to_world, rotation_yaw
 from pg_core.target_mask import TargetNotVisible, dilate_mask
 
 PUSH_RADIUS_M = 0.05  # default push region: cells within 5 cm of the target (25 cells at 0.002 m)
@@ -115,10 +116,12 @@ def action_pose(heightmap: Heightmap, primitive: str, rotation: int, row: int, c
     if not (0 <= row < h and 0 <= col < w):
         raise ValueError(f"cell ({row}, {col}) outside the {h} x {w} heightmap")
     x, y = pixel_to_world(row, col, heightmap.bounds, heightmap.resolution)
-    zmin = float(heightmap.bounds[2, 0])
-    height_fn = grasp_z if primitive == "grasp" else push_z
-    z = height_fn(heightmap.height, row, col, prims, zmin=zmin)
-    return x, y, z, rotation * 2.0 * math.pi / rotations
+    yaw = rotation_yaw(rotation, rotations)
+    if primitive == "grasp":  # the cell's height, or below the rim of a pit along the jaw line at this yaw
+        z = grasp_z_at(heightmap, row, col, prims, yaw=yaw)
+    else:
+        z = push_z(heightmap.height, row, col, prims, zmin=float(heightmap.bounds[2, 0]))
+    return x, y, z, yaw
 
 
 def decide(q_grasp: np.ndarray, q_push: np.ndarray, target: np.ndarray, heightmap: Heightmap, prims: PrimitiveSpec,

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pg_core.geometry import Geometry
-from pg_core.heightmap import Heightmap, world_to_pixel
+from pg_core.heightmap import OBJECT_HEIGHT_M, Heightmap, cell_centres, pixel_to_world, world_to_pixel
 
 
 @dataclass(frozen=True)
@@ -24,7 +24,7 @@ class JawParams:
 
     margin: float = 0.003  # free space demanded around the finger regions
     obstacle_tol: float = 0.004  # a neighbour blocks when higher than grasp z - tol
-    occupied: float = 0.008  # cells higher than this hold an object
+    occupied: float = OBJECT_HEIGHT_M  # cells higher than this hold an object (pg_core.heightmap)
     window: float = 0.10  # half-size of the region around the target that is examined
     min_band_cells: int = 10  # target cells needed between the finger pads for a grasp
     centre_line: float = 0.006  # half-width of the central strip of the pads
@@ -46,7 +46,7 @@ class CellWindow:
             r0, r1, c0, c1 = max(rc - k, 0), min(rc + k + 1, rows), max(cc - k, 0), min(cc + k + 1, cols)
         rr, cc_ = np.mgrid[r0:r1, c0:c1]
         self.slice = (slice(r0, r1), slice(c0, c1))
-        self.xy = np.stack([b[0, 0] + (cc_ + 0.5) * res, b[1, 0] + (rr + 0.5) * res], axis=-1).reshape(-1, 2)
+        self.xy = cell_centres(rr, cc_, b, res).reshape(-1, 2)
         self.h = hm.height[self.slice].reshape(-1)
 
 
@@ -63,8 +63,7 @@ def dilate(mask: np.ndarray, cells: int) -> np.ndarray:
 def mask_centre(hm: Heightmap, mask: np.ndarray) -> np.ndarray:
     """World (x, y) in m of the mean cell centre of the non-empty (H, W) bool `mask`."""
     rows, cols = np.nonzero(mask)
-    return np.array([hm.bounds[0, 0] + (cols.mean() + 0.5) * hm.resolution,
-                     hm.bounds[1, 0] + (rows.mean() + 0.5) * hm.resolution])
+    return np.array(pixel_to_world(rows.mean(), cols.mean(), hm.bounds, hm.resolution))
 
 
 class JawFit:

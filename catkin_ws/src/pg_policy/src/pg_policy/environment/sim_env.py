@@ -25,12 +25,15 @@ from pg_sim.world.world import World
 @dataclass(frozen=True)
 class EnvObservation:
     """heightmap: what the camera sees; target: colour name of the goal; truth_target: (H, W) bool ground-truth
-    cells of the goal object (simulation only: for relabelling, evaluation and tests, never as policy input)."""
+    cells of the goal object (simulation only: for relabelling, evaluation and tests, never as policy input);
+    search: the episode's target memory (pg_policy.perception.target_memory.TargetSearch), set by the episode
+    protocol before the policy sees the observation (None from the environment itself)."""
 
     heightmap: Heightmap
     target: str
     truth_target: np.ndarray
     sim_time: float
+    search: Any = None
 
 
 @dataclass(frozen=True)
@@ -101,6 +104,16 @@ class SimEnv:
 
     def target_present(self) -> bool:
         return self.world.target_id is not None
+
+    def target_outside(self) -> bool | None:
+        """Ground truth: whether the target body's position lies outside the workspace box in x or y, or below its
+        floor (fallen off the table); None when the world holds no target body (e.g. it was lifted and removed)."""
+        tid = self.world.target_id
+        if tid is None or tid not in self.world.objects:
+            return None
+        x, y, z = (float(v) for v in self.world.object_poses()[tid][:3])
+        ws = self.geometry.workspace
+        return not (ws.x[0] <= x <= ws.x[1] and ws.y[0] <= y <= ws.y[1]) or z < ws.z[0]
 
     def step(self, primitive: str, x: float, y: float, z: float, yaw: float) -> StepResult:
         """Execute one primitive at TCP (x, y, z) m, yaw rad in `world`."""

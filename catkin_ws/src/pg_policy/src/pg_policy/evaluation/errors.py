@@ -13,10 +13,11 @@ import traceback
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+from pg_policy.target_loop.episode import ERROR  # the termination of a trial that ended in an error
+
 if TYPE_CHECKING:
     from pg_policy.evaluation.trials import TrialRecord
 
-ERROR = "error"  # the termination of a trial that ended in an error
 ERROR_CHARS = 300
 TRACE_FRAMES = 6
 TRACE_CHARS = 2000

@@ -5,8 +5,11 @@ C and GS per scene with standard-error whiskers). C and GS are shown in percent,
 Trials that ended in an error (termination "error", pg_policy.evaluation.errors) count as not completed. results.md
 then lists the error reasons under the table (one line per distinct reason with its count and first trials) and the
 secondary table has an "errors" column; results.json has, per scene of "summary", "counts" (trials, completed,
-errors) beside the metrics ("errors" there: the fraction of trials that ended in an error), and a top-level "errors"
-list (reason, count, [scene, seed] of each trial); each error trial carries "error", "error_at" and "error_trace".
+errors, lost) beside the metrics ("errors" there: the fraction of trials that ended in an error), and a top-level
+"errors" list (reason, count, [scene, seed] of each trial); each error trial carries "error", "error_at" and
+"error_trace". Trials whose target left the workspace (termination "target_lost") count as not completed too: the
+secondary table has a "lost" column and shows them among the terminations, results.md lists their reasons (each
+trial's "message"), and "lost" in a scene's metrics is the fraction of such trials.
 Trials of the catalogue families (novel-N, ...) also get rows per kind of target (pg_policy.evaluation.target_kinds):
 a table at the end of results.md and "by_target_kind" in results.json.
 """
@@ -22,6 +25,7 @@ from typing import Any
 from pg_policy.evaluation.errors import ERROR, errors_json, reason_lines
 from pg_policy.evaluation.target_kinds import by_kind
 from pg_policy.evaluation.trials import Stat, TrialRecord, _plain, summarize
+from pg_policy.target_loop.episode import FAILED_GRASPS, MAX_ACTIONS, TARGET_LOST
 
 METRIC_DOC = (
     "C: completed trials / trials. GS: target grasps / grasp attempts per trial, averaged over the trials with at "
@@ -72,17 +76,22 @@ def markdown(summary: dict[str, dict[str, Stat]], config: dict[str, Any], trials
         n_err = sum(t.termination == ERROR for t in trials)
         lines += ["", f"**{n_err} of {len(trials)} trials ended in an error** (counted as not completed; reasons, "
                   "most frequent first):", ""] + errors
+    lost = lost_lines(trials)
+    if lost:
+        lines += ["", f"**{sum(t.termination == TARGET_LOST for t in trials)} of {len(trials)} trials lost the "
+                  "target** (it left the workspace; counted as not completed):", ""] + lost
     lines += ["", METRIC_DOC, "", "Secondary figures:", "",
-              "| Scene | trials | completed | errors | GS per completion (%) | actions per completed trial "
-              "| refused per trial | ended by failed grasps / action budget |",
-              "|---|---|---|---|---|---|---|---|"]
+              "| Scene | trials | completed | errors | lost | GS per completion (%) | actions per completed trial "
+              "| refused per trial | ended by failed grasps / action budget / target lost |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for name, m in summary.items():
         ts = [t for t in trials if name == "all" or t.scene == name]
         c = counts(ts)
-        fg = sum(t.termination == "failed_grasps" for t in ts)
-        ma = sum(t.termination == "max_actions" for t in ts)
-        lines.append(f"| {name} | {c['trials']} | {c['completed']} | {c['errors']} | {fmt(m['gs_completed'], 100)} | "
-                     f"{fmt(m['actions_completed'], 1, 2)} | {fmt(m['refused'], 1, 2)} | {fg} / {ma} |")
+        fg = sum(t.termination == FAILED_GRASPS for t in ts)
+        ma = sum(t.termination == MAX_ACTIONS for t in ts)
+        lines.append(f"| {name} | {c['trials']} | {c['completed']} | {c['errors']} | {c['lost']} | "
+                     f"{fmt(m['gs_completed'], 100)} | {fmt(m['actions_completed'], 1, 2)} | "
+                     f"{fmt(m['refused'], 1, 2)} | {fg} / {ma} / {c['lost']} |")
     lines += ["", "GS per completion and actions per completed trial are how Xu et al.'s evaluate.py counts "
               "\"grasp success\" and \"motion number\".", ""]
     return "\n".join(lines + kind_lines(trials))
@@ -102,9 +111,22 @@ def kind_lines(trials: Sequence[TrialRecord]) -> list[str]:
 
 
 def counts(trials: Sequence[TrialRecord]) -> dict[str, int]:
-    """Trials, completed trials and trials that ended in an error."""
+    """Trials, completed trials, trials that ended in an error and trials whose target left the workspace."""
     return {"trials": len(trials), "completed": sum(bool(t.completed) for t in trials),
-            "errors": sum(t.termination == ERROR for t in trials)}
+            "errors": sum(t.termination == ERROR for t in trials),
+            "lost": sum(t.termination == TARGET_LOST for t in trials)}
+
+
+def lost_lines(trials: Sequence[TrialRecord], show: int = 3) -> list[str]:
+    """One markdown list line per scene with target_lost trials: count, the first `show` trials (seed, and why when
+    the record says)."""
+    by_scene: dict[str, list[TrialRecord]] = {}
+    for t in trials:
+        if t.termination == TARGET_LOST:
+            by_scene.setdefault(t.scene, []).append(t)
+    return [f"- {scene}: {len(ts)} × ("
+            + "; ".join(f"seed {t.seed}" + (f": {t.message}" if t.message else "") for t in ts[:show])
+            + ("; ..." if len(ts) > show else "") + ")" for scene, ts in by_scene.items()]
 
 
 def plot(summary: dict[str, dict[str, Stat]], path: Path, title: str) -> Path:

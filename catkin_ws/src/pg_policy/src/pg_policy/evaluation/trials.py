@@ -1,13 +1,19 @@
 """The evaluation protocol of DESIGN.md section 8: trials, their records, and the per-scene metrics C, GS and MN.
 
-A trial: reset the scene (seeded), then ask the policy for one decision at a time and execute it, until
+A trial is one episode of the protocol shared with the ROS call and training (pg_policy.target_loop.episode): reset
+the scene (seeded), then ask the policy for one decision at a time and execute it, until
   - the target is grasped (the trial is *completed*),
+  - the target has left the workspace (``target_lost``: the target memory's evidence, confirmed, or overruled, by
+    the simulator's ground truth, SimEnv.target_outside),
   - ``max_failed_grasps`` (5) grasp attempts have failed, or
   - ``max_actions`` (30) actions have been taken.
 Every decision the policy returns counts as an action, refused ones included (they are logged with the refusal
 message). An executed grasp is a *grasp attempt*; it *fails* unless the target is the object held after lifting (a
 wrong object held also fails, and the simulator removes that object). An executed push is a *push*. A refused
-decision is neither an attempt nor a push: it moved nothing, but it spends one action of the budget.
+decision is neither an attempt nor a push: it moved nothing, but it spends one action of the budget. A push that
+repeats a push that changed nothing (same rotation, same place) is refused by the protocol without moving.
+The policy gets each observation with the episode's target memory as ``obs.search`` (where the target was last
+seen, what covers that place while it is hidden, the futile pushes).
 
 Per-trial quantities and the per-scene metrics (each reported as mean +- standard error over trials):
   - C  (completion): c_i = 1 if trial i completed else 0, averaged over all trials of the scene.
@@ -23,7 +29,7 @@ deviation over sqrt(n)); undefined (None) for n < 2.
 Seeds: trial i (0-based) of every scene uses seed ``seed + i``: it seeds the random scene (``random-N``), the pose
 jitter of fixed scenes, and the policy's own randomness (``policy.reset(seed)``), so a run is reproducible from
 ``seed`` alone (every trial runs in a fresh simulator, see ``run_plan``). Evaluation seeds must be disjoint from
-training seeds: training uses seeds below ``MIN_EVAL_SEED``.
+training seeds: training uses seeds below ``MIN_EVAL_SEED`` (pg_core.seeds; ``check_seed``).
 
 Fixed scenes (packed, household, files) are deterministic in PyBullet, so repeated trials of a deterministic policy
 would be copies of each other. Each trial therefore places the whole scene with a small seeded rigid motion
@@ -43,18 +49,22 @@ import logging
 import math
 import time
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import asdict, dataclass, field, is_dataclass, replace
+from dataclasses import asdict, dataclass, field, fields, is_dataclass, replace
 from typing import Any, Protocol
 
 import numpy as np
 
+from pg_core.seeds import MIN_EVAL_SEED
+from pg_core.target_mask import target_mask
 from pg_policy.evaluation.errors import ERROR, mark_error
-from pg_policy.target_loop.limits import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
+from pg_policy.target_loop.episode import TARGET_LOST, Episode, Limits, Outcome
+from pg_policy.target_loop.episode import check_eval_seed as check_seed
+from pg_policy.target_loop.target_loop import PolicyObservation
 from pg_sim.scenes.scene import find_scene, list_scenes, load_scene
 from pg_sim.world.scene_families import GENERATED
 from pg_sim.world.sim_mode import DEFAULT_SIM_MODE
 
-MIN_EVAL_SEED = 1_000_000
+__all__ = ["MIN_EVAL_SEED", "Limits", "check_seed"]  # re-exported: the protocol's seed convention and limits
 DEFAULT_SEED = MIN_EVAL_SEED
 DEFAULT_JITTER_XY = 0.01  # m
 DEFAULT_JITTER_YAW = math.radians(11.25)  # half of one of the 16 rotation steps
@@ -80,19 +90,6 @@ class EvalPolicy(Protocol):
     def act(self, obs: Any) -> Any: ...
 
 
-@dataclass(frozen=True)
-class Limits:
-    """When a trial stops besides completion: action budget and failed grasp attempts."""
-
-    max_actions: int = DEFAULT_MAX_ACTIONS
-    max_failed_grasps: int = DEFAULT_MAX_FAILED_GRASPS
-
-    def __post_init__(self) -> None:
-        if self.max_actions < 1 or self.max_failed_grasps < 1:
-            raise ValueError(f"limits must be >= 1, got max_actions {self.max_actions}, "
-                             f"max_failed_grasps {self.max_failed_grasps}")
-
-
 @dataclass
 class TrialRecord:
     """One trial: scene name, seed, counts, why it ended, and every action (decision + outcome) in order."""
@@ -100,7 +97,7 @@ class TrialRecord:
     scene: str
     seed: int
     completed: bool = False
-    termination: str = ""  # "completed" | "failed_grasps" | "max_actions" | "error"
+    termination: str = ""  # "completed" | "target_lost" | "failed_grasps" | "max_actions" | "error" (episode.py)
     grasps: int = 0  # executed grasp attempts
     target_grasps: int = 0
     failed_grasps: int = 0
@@ -112,6 +109,7 @@ class TrialRecord:
     error: str | None = None  # termination "error": "ExceptionType: message" (pg_policy.evaluation.errors)
     error_at: str | None = None  # where it was raised: scene, env.make, policy.act, env.step, worker, ...
     error_trace: str | None = None  # innermost traceback frames
+    message: str = ""  # why the trial ended, in words (e.g. "target lost: seen leaving the workspace at (x, y)")
 
     @property
     def n_actions(self) -> int:
@@ -157,6 +155,7 @@ def scene_metrics(trials: Sequence[TrialRecord]) -> dict[str, Stat]:
         "actions_completed": mean_se(t.n_actions for t in done),
         "refused": mean_se(t.refused for t in trials),
         "errors": mean_se(1.0 if t.termination == ERROR else 0.0 for t in trials),  # mean x n = error trials
+        "lost": mean_se(1.0 if t.termination == TARGET_LOST else 0.0 for t in trials),  # mean x n = lost targets
     }
 
 
@@ -183,68 +182,76 @@ def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: L
 
     `scene` goes to env.reset(scene, seed) unchanged (a name, a YAML path, "random-N" or a SceneSpec); `scene_name`
     labels the record (default str(scene)). An Exception of the env or the policy ends the trial with termination
-    "error" (the actions before it kept); KeyboardInterrupt and other BaseExceptions propagate.
+    "error" (the actions before it kept); KeyboardInterrupt and other BaseExceptions propagate. An environment whose
+    observations carry no heightmap (test doubles) runs without the target memory: counts and limits only.
     """
-    limits = limits or Limits()
     t0 = time.perf_counter()
     rec = TrialRecord(scene=scene_name or str(scene), seed=seed)
+    ep = Episode(limits or Limits())
     stage = "policy.reset"
     try:
         policy.reset(seed)
         stage = "env.reset"
-        obs = env.reset(scene, seed)
-        while not _stopped(rec, limits):
+        obs = _observed(ep, env, env.reset(scene, seed))
+        while not ep.over():
             stage = "policy.act"
             t_act = time.perf_counter()
             decision = policy.act(obs)
             think_s = time.perf_counter() - t_act
             pose = (float(decision.x), float(decision.y), float(decision.z), float(decision.yaw))
             stage = "env.step"
-            result = env.step(decision.primitive, *pose)
-            if result.refused:
-                rec.refused += 1
-            elif result.primitive == "grasp":
-                rec.grasps += 1
-                if result.target_grasped:
-                    rec.target_grasps += 1
-                else:
-                    rec.failed_grasps += 1
-            else:
-                rec.pushes += 1
+            veto = ep.vet(decision)
+            result = _refused(decision.primitive, veto) if veto is not None else env.step(decision.primitive, *pose)
+            ep.record(decision, Outcome(refused=bool(result.refused), target_grasped=bool(result.target_grasped),
+                                        message=str(result.message)))
             rec.sim_s += float(result.sim_time)
-            rec.actions.append({"index": rec.n_actions, "decision": _plain(decision), "outcome": _plain(result),
-                                "think_s": round(think_s, 4), "note": str(getattr(policy, "last_note", ""))})
-            if not _stopped(rec, limits):  # no observation after the last action: it would not be used
+            rec.actions.append({"index": len(rec.actions), "decision": _plain(decision), "outcome": _plain(result),
+                                "think_s": round(think_s, 4), "note": str(getattr(policy, "last_note", "")),
+                                "target": _tracking(getattr(obs, "search", None))})
+            if not ep.over():  # no observation after the last action: it would not be used
                 stage = "env.observe"
-                obs = env.observe()
+                obs = _observed(ep, env, env.observe())
     except Exception as exc:  # DESIGN.md section 8: the trial fails with its reason, the run goes on
         mark_error(rec, exc, stage)
+        ep.stop(ERROR, f"error at {stage}: {rec.error}")
         log.warning("%s seed %s: trial ended in an error at %s: %s", rec.scene, seed, stage, rec.error)
+    rec.completed, rec.termination, rec.message = ep.completed, ep.termination, ep.why
+    rec.grasps, rec.target_grasps, rec.failed_grasps = ep.grasps, ep.target_grasps, ep.failed_grasps
+    rec.pushes, rec.refused = ep.pushes, ep.refused
     rec.wall_s = time.perf_counter() - t0
     return rec
 
 
-def _stopped(rec: TrialRecord, limits: Limits) -> bool:
-    """Whether the trial is over (completed, too many failed grasps, action budget); sets completed/termination."""
-    if rec.target_grasps:
-        rec.completed, rec.termination = True, "completed"
-    elif rec.failed_grasps >= limits.max_failed_grasps:
-        rec.termination = "failed_grasps"
-    elif rec.n_actions >= limits.max_actions:
-        rec.termination = "max_actions"
-    else:
-        return False
-    return True
+def _refused(primitive: str, message: str) -> Any:
+    """The StepResult of a decision the episode refused (nothing moved). Imported here: the simulator's modules
+    stay out of the processes that only read records (pushgrasp compare, bench on saved cases)."""
+    from pg_policy.environment.sim_env import StepResult
+
+    return StepResult(primitive, False, True, False, False, None, message, 0.0)
 
 
-def check_seed(seed: int, allow_train_seeds: bool = False) -> None:
-    """Raise ValueError when `seed` may collide with training seeds (< MIN_EVAL_SEED) unless explicitly allowed."""
-    if seed < 0:
-        raise ValueError(f"seed must be >= 0, got {seed}")
-    if seed < MIN_EVAL_SEED and not allow_train_seeds:
-        raise ValueError(f"evaluation seed {seed} is below {MIN_EVAL_SEED:,}: training uses seeds below that, so the "
-                         f"evaluation scenes could be training scenes; use --seed >= {MIN_EVAL_SEED} "
-                         "(or --allow-train-seeds to override)")
+def _observed(ep: Episode, env: EvalEnv, obs: Any) -> Any:
+    """`obs` told to the episode (its target mask, and the simulator's ground truth when `env` has
+    `target_outside()`), with the episode's target memory as `search` for the policy; unchanged when it has no
+    heightmap."""
+    hm = getattr(obs, "heightmap", None)
+    if hm is None:
+        return obs
+    truth = getattr(env, "target_outside", None)
+    search = ep.observe(hm, target_mask(hm.color, hm.valid, obs.target), truth() if callable(truth) else None)
+    if is_dataclass(obs) and "search" in {f.name for f in fields(obs)}:
+        return replace(obs, search=search)
+    return PolicyObservation(hm, obs.target, search)
+
+
+def _tracking(search: Any) -> dict[str, Any] | None:
+    """The record's view of the target memory an action was decided with: visible, cells, observations hidden in a
+    row, last seen (x, y) in `world` m; None without a memory."""
+    if search is None:
+        return None
+    seen = search.last_seen
+    return {"visible": bool(search.visible), "cells": int(search.cells), "hidden_for": int(search.hidden_for),
+            "last_seen": None if seen is None else [round(seen.x, 4), round(seen.y, 4)]}
 
 
 def expand_scenes(items: Sequence[str]) -> list[str]:
@@ -325,14 +332,21 @@ class EvalPlan:
 
 def run_plan(make_env: Callable[[], EvalEnv], policy: EvalPolicy, plan: EvalPlan,
              on_trial: Callable[[TrialRecord], None] | None = None) -> list[TrialRecord]:
-    """Run every trial of `plan` in order; `on_trial` is called after each trial.
+    """Run every trial of `plan` in order; `on_trial` is called after each trial (run_jobs)."""
+    return run_jobs(make_env, policy, plan, plan.jobs(), on_trial)
+
+
+def run_jobs(make_env: Callable[[], EvalEnv], policy: EvalPolicy, plan: EvalPlan, jobs: Sequence[tuple[str, int]],
+             on_trial: Callable[[TrialRecord], None] | None = None) -> list[TrialRecord]:
+    """Run the trials `jobs` ((scene, seed) pairs of `plan`) in order, in this process; `on_trial` is called after
+    each trial.
 
     Each trial gets a fresh environment from `make_env()` (closed afterwards when it has close()): PyBullet's
     contact solver keeps state between calls, so a world that ran other trials before would not reproduce a trial
     exactly. With a fresh world per trial, a trial's record depends only on (policy, scene, seed, limits, jitter).
     """
     out = []
-    for name, seed in plan.jobs():
+    for name, seed in jobs:
         out.append(run_fresh(make_env, policy, name, seed, plan))
         if on_trial is not None:
             on_trial(out[-1])

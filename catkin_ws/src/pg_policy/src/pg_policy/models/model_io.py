@@ -124,11 +124,6 @@ def verify_geometry(meta: dict[str, Any], geometry: Geometry, where: str = "mode
                              + "; ".join(diffs))
 
 
-def read_metadata(path: str | Path) -> dict[str, Any]:
-    """Only the metadata of an exported file (loads the file). Raises ModelLoadError like `load_qnet`."""
-    return load_qnet(path, check_geometry=False)[1]
-
-
 def load_qnet(path: str | Path, geometry: Geometry | None = None, check_geometry: bool = True,
               map_location: str | torch.device = "cpu") -> tuple[torch.jit.ScriptModule, dict[str, Any]]:
     """(scripted net in eval mode, metadata) from an exported file.

@@ -45,12 +45,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pg_core.action_geometry import grasp_z, grasp_z_for_height, push_z
+from pg_core.action_geometry import grasp_z_at, grasp_z_for_height, push_z
 from pg_core.geometry import Geometry
-from pg_core.heightmap import Heightmap, world_to_pixel
+from pg_core.heightmap import Heightmap, rotation_yaw, world_to_pixel
 from pg_core.palette import PALETTE
 from pg_core.target_mask import target_mask
 from pg_policy.decision.jaw_fit import CellWindow, JawFit, JawParams, dilate, mask_centre
+from pg_policy.decision.rules.failed_grasps import DEFAULT_RADIUS_M as FAILED_GRASP_RADIUS_M
 
 OFFSETS = (0.0, -0.006, 0.006, -0.012, 0.012, -0.018, 0.018, -0.024, 0.024, -0.03, 0.03)  # grasp line shifts (m)
 
@@ -65,7 +66,7 @@ class HeuristicParams(JawParams):
     edge_margin: float = 0.03  # predicted target centre must stay this far inside the workspace
     enough_clearance: float = 0.01  # more clearance than this does not make a grasp better
     width_weight: float = 0.5  # score per metre of target width between the pads (narrow grasps are stabler)
-    repeat_radius: float = 0.008  # a failed grasp closer than this (same rotation) is not repeated
+    repeat_radius: float = FAILED_GRASP_RADIUS_M  # a failed grasp closer than this (same axis) is not repeated
     min_target_cells: int = 25  # fewer visible target cells: treated as not visible
     on_top: float = 0.01  # another object's cells this much above the target's top inside its hull lie on it
     declutter_after: int = 4  # pushes in a row after which a blocking neighbour is grasped away
@@ -95,7 +96,7 @@ class HeuristicPlanner:
 
     # -- helpers -----------------------------------------------------------------------------------------------
     def yaw(self, r: int) -> float:
-        return r * 2 * math.pi / self.rotations
+        return rotation_yaw(r, self.rotations)
 
     def _pixel(self, hm: Heightmap, xy: np.ndarray) -> tuple[int, int] | None:
         r, c = world_to_pixel(float(xy[0]), float(xy[1]), hm.bounds, hm.resolution)
@@ -133,7 +134,7 @@ class HeuristicPlanner:
                 pix = self._pixel(hm, centre)
                 if pix is None or not obj[pix]:
                     continue
-                zg = grasp_z(hm.height, pix[0], pix[1], self.g.primitives)
+                zg = grasp_z_at(hm, pix[0], pix[1], self.g.primitives, yaw=yaw)
                 fit = self.grasp_fit(t_xy, o_xy, o_h, centre, yaw, zg)
                 if fit is None or fit[0] < 0:
                     continue

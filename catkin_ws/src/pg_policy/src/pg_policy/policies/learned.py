@@ -1,11 +1,13 @@
 """The `learned` policy: the grasp and push nets, the model's test-time rules, and the paper's decision rule.
 
 Per decision (the paper's loop at test time):
-1. perceive: the target mask (goal-agnostic: every object cell while the target is not visible) and the regions;
+1. perceive: the target mask (while the target is not visible: what covers the place the episode's target memory
+   last saw it, `obs.search`, else every object cell) and the regions;
 2. Q maps: both nets over the 16 rotations (pg_policy.models.inference), by default only on the cells around the
    grasp and the push region that the rules and the decision read (option q_window; exact: the full maps' values
    there, every other cell -inf);
 3. rules: the model's rule pipeline adjusts the maps (pg_policy.decision.rules; first told what the last action did);
+   the pushes the episode's memory found futile are suppressed in Q_p first (same rotation, within its radius);
 4. decide: grasp if the masked max Q_g exceeds the threshold, else push (pg_policy.decision.decision.decide); a push
    budget B > 0 grasps after B pushes in a row whatever Q_g says (as the paper's push stage does in training), and a
    vetoing grasp rule pushes instead within the budget; while the target is hidden it pushes until HIDDEN_PUSHES
@@ -26,12 +28,13 @@ import numpy as np
 
 from pg_core.target_mask import MIN_VISIBLE_CELLS
 from pg_policy.decision.decision import Decision, decide, regions
+from pg_policy.decision.rules.failed_grasps import suppress_near
 from pg_policy.decision.rules.registry import make_pipeline, model_rules
 from pg_policy.decision.rules.rule import RuleContext
 from pg_policy.models.inference import target_window
 from pg_policy.policies.model_files import load_nets, metadata_thresholds, resolve_models, threshold_from_metadata
 from pg_policy.policies.options import HIDDEN_PUSHES, resolved_rules
-from pg_policy.policies.policy import PolicyBase, PolicyOptions, goal_or_all
+from pg_policy.policies.policy import PolicyBase, PolicyOptions, goal_of
 
 # Cells of Q computed beyond a region: each rule's `reach` (the grasp filter's k x k squares read (k - 1) / 2 cells
 # around a cell; the shipped min3 reads 1), this many for a filter rule whose reach is unknown. A primitive without
@@ -105,11 +108,13 @@ class LearnedPolicy(PolicyBase):
     def act(self, obs: Any) -> Decision:
         t0 = time.perf_counter()
         hm = obs.heightmap
-        target, visible = goal_or_all(obs, self.min_target_cells)
+        goal = goal_of(obs, self.min_target_cells)
+        target, visible = goal.mask, goal.visible
         ctx = RuleContext(hm, target, visible, *regions(target, hm))
         self.rules.observe(self.last, ctx)
         t1 = time.perf_counter()
         q = self._q_maps(hm, target, ctx)
+        q["push"] = without_futile(q["push"], hm, getattr(obs, "search", None), ctx.push_region)
         t2 = time.perf_counter()
         outcome = self.rules.apply(q, ctx)
         t3 = time.perf_counter()
@@ -119,7 +124,7 @@ class LearnedPolicy(PolicyBase):
         if outcome.push_instead and not spent:
             threshold, self.last_note = math.inf, outcome.note
         if not visible and self.pushes_in_row < self.hidden_pushes:
-            threshold, self.last_note = math.inf, "target hidden: push"
+            threshold = math.inf
         q_grasp = outcome.q["grasp"]
         if spent and self.forced_fallback and outcome.vetoed["grasp"]:
             q_grasp, level = self.rules.forced_grasp(q_grasp, ctx)
@@ -127,8 +132,21 @@ class LearnedPolicy(PolicyBase):
                 self.last_note = f"push budget spent: grasp passing fallback test {level + 1} of the grasp rules"
         d = decide(q_grasp, outcome.q["push"], target, hm, self.prims, threshold,
                    push_mask=ctx.push_region, grasp_mask=ctx.grasp_region)  # the regions the rules saw
+        if not visible:  # e.g. "target hidden: searching where last seen (x, y): push"
+            self.last_note = f"{goal.note}: {d.primitive}" + (f" ({self.last_note})" if self.last_note else "")
         self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0
         self.last = d
         rules = {(name if name == "rerank" else f"rule:{name}"): s for name, s in self.rules.timings.items()}
         self.last_timings = {"perceive": t1 - t0, "nets": t2 - t1, **rules, "decide": time.perf_counter() - t3}
         return d
+
+
+def without_futile(q_push: np.ndarray, hm: Any, search: Any, region: np.ndarray) -> np.ndarray:
+    """The (R, H, W) push map with -inf where a push would repeat one the episode's target memory found futile
+    (`search.futile_pushes`: same rotation, start within `search.futile_radius_m`; the cells the episode refuses);
+    unchanged without a memory or futile pushes, or when that would leave no finite value in `region` ((H, W) bool)."""
+    pushes = getattr(search, "futile_pushes", ())
+    if not pushes:
+        return q_push
+    out = suppress_near(q_push, hm, [((r,), x, y) for r, x, y in pushes], float(search.futile_radius_m))
+    return out if np.isfinite(out[:, region]).any() else q_push

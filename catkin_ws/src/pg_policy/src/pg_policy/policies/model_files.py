@@ -11,12 +11,18 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from pg_core.resources import shipped_models
 from pg_policy.models.inference import PolicyNets
 from pg_policy.models.model_io import ModelLoadError, load_qnet
 
 GRASP_FILE = "grasp.pt"
 PUSH_FILE = "push.pt"
-SHIPPED_MODELS = Path(__file__).resolve().parents[3] / "models"  # catkin_ws/src/pg_policy/models
+
+
+def __getattr__(name: str) -> Any:
+    if name == "SHIPPED_MODELS":  # pg_policy's models/ folder (pg_core.resources), found when first asked for
+        return shipped_models()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def resolve_models(paths: Sequence[str | Path], need_push: bool) -> tuple[Path, Path | None]:

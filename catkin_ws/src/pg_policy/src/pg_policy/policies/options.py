@@ -33,10 +33,11 @@ GENERAL = (
                  "grasp_filter:min3,failed_grasps:0.01,grasp_check:jaw-walls,push_landing,edge_guard); none: no "
                  "rules", metavar="LIST"),
     PolicyOption("min_target_cells", "int", "learned: the target counts as visible (goal-conditioned maps and rules) "
-                 "from this many detected cells; fewer: goal-agnostic over every object", metavar="N",
+                 "from this many detected cells; fewer: hidden, searched for where it was last seen", metavar="N",
                  default=str(MIN_VISIBLE_CELLS)),
-    PolicyOption("hidden_pushes", "int", "learned: while the target is hidden (goal-agnostic), push instead of "
-                 "grasping a neighbour until this many pushes in a row, then grasp as Q_g says; 0: grasp as Q_g says",
+    PolicyOption("hidden_pushes", "int", "learned: while the target is hidden (searched for where it was last seen), "
+                 "push instead of grasping a neighbour until this many pushes in a row, then grasp as Q_g says; 0: "
+                 "grasp as Q_g says",
                  metavar="N", default=str(HIDDEN_PUSHES)),
     PolicyOption("forced_grasp", "switch", "learned: when the push budget forces a grasp that no candidate passes "
                  "the grasp rules for, grasp the best cell passing their weaker fallback tests; off: Q_g's argmax",

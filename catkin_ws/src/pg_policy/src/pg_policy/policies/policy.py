@@ -6,8 +6,12 @@ pg_policy.decision.decision.Decision. It finds the target itself, from the colou
 (never from the simulator's ground truth). `reset(seed)` starts a new trial (seeding the policy's own randomness);
 `q_maps()` returns the Q maps behind the last decision ({"grasp": (R, H, W), "push": (R, H, W)} float arrays, after
 the "filter" rules) for policies that have them, else {}. A policy may also keep a `last_note` string saying why it
-took its last decision (the evaluation logs it with the action). docs/PLUGINS.md is this contract for third-party
-policies.
+took its last decision (the evaluation logs it with the action). Within an episode (a ROS call, an evaluation trial)
+the observation also carries `.search`, the episode's target memory (pg_policy.perception.target_memory.TargetSearch:
+where the target was last seen, what covers that place while it is hidden, the pushes that changed nothing), which a
+policy should honour: search where the target was last seen (`goal_of`), never repeat a futile push (the episode
+refuses it). Outside an episode (/pg/infer, bag replays) `.search` is absent or None. docs/PLUGINS.md is this
+contract for third-party policies.
 """
 
 from __future__ import annotations
@@ -20,11 +24,9 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from pg_core.geometry import Geometry, load
-from pg_core.heightmap import Heightmap
+from pg_core.heightmap import OBJECT_HEIGHT_M, Heightmap
 from pg_core.target_mask import MIN_VISIBLE_CELLS, target_mask
 from pg_policy.decision.decision import Decision, action_pose
-
-OBJECT_HEIGHT_M = 0.008  # cells higher than this hold an object (the goal-agnostic fallback region)
 
 
 @runtime_checkable
@@ -63,14 +65,38 @@ def observed_target(obs: Any) -> np.ndarray:
     return target_mask(hm.color, hm.valid, obs.target)
 
 
-def goal_or_all(obs: Any, min_cells: int = MIN_VISIBLE_CELLS) -> tuple[np.ndarray, bool]:
-    """(the target mask, True) when the target is visible (at least `min_cells` cells); else (every object cell,
-    False): goal-agnostic, to uncover it."""
+@dataclass(frozen=True)
+class Goal:
+    """What a policy acts on: `mask` ((H, W) bool), whether it is the visible target, and, while the target is
+    hidden, `note` (what the policy does about it: searching where it was last seen, or every object)."""
+
+    mask: np.ndarray
+    visible: bool
+    note: str = ""
+
+
+def goal_of(obs: Any, min_cells: int = MIN_VISIBLE_CELLS) -> Goal:
+    """The target mask when the target is visible (at least `min_cells` cells). While it is hidden: the search goal
+    of the episode's target memory (`obs.search`, pg_policy.perception.target_memory.TargetSearch.goal: the object
+    cells covering the place the target was last seen), else every object cell (goal-agnostic, to uncover it; every
+    cell when nothing stands on the table)."""
     target = observed_target(obs)
     if target.sum() >= min_cells:
-        return target, True
+        return Goal(target, True)
+    search = getattr(obs, "search", None)
+    if search is not None:
+        goal = search.goal(obs.heightmap, OBJECT_HEIGHT_M)
+        if goal is not None:
+            return Goal(goal, False, search.note(True))
     objects = obs.heightmap.height > OBJECT_HEIGHT_M
-    return (objects if objects.any() else np.ones_like(target)), False
+    note = "target hidden" if search is None else search.note(False)
+    return Goal(objects if objects.any() else np.ones_like(target), False, note)
+
+
+def goal_or_all(obs: Any, min_cells: int = MIN_VISIBLE_CELLS) -> tuple[np.ndarray, bool]:
+    """(goal mask, target visible) of goal_of."""
+    goal = goal_of(obs, min_cells)
+    return goal.mask, goal.visible
 
 
 class PolicyBase:

@@ -6,9 +6,10 @@ from typing import Any
 
 import numpy as np
 
+from pg_core.heightmap import OBJECT_HEIGHT_M
 from pg_core.target_mask import dilate_mask
 from pg_policy.decision.decision import Decision
-from pg_policy.policies.policy import OBJECT_HEIGHT_M, PolicyBase, observed_target
+from pg_policy.policies.policy import PolicyBase, observed_target
 
 RANDOM_RADIUS_M = 0.02  # cells drawn within the target mask grown by this
 

@@ -16,7 +16,8 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
 
-from pg_policy.policies.model_files import GRASP_FILE, PUSH_FILE, SHIPPED_MODELS
+from pg_core.resources import shipped_models
+from pg_policy.policies.model_files import GRASP_FILE, PUSH_FILE
 from pg_policy.policies.policy import Policy, PolicyOptions
 
 ENTRY_POINT_GROUP = "pushgrasp.policies"
@@ -76,7 +77,8 @@ def _construct(entry: PolicyEntry, opts: PolicyOptions) -> Policy:
 def make_policy(name_or_path: str, opts: PolicyOptions | None = None) -> Policy:
     """A policy by registered name (built-in or plugin), or `learned` / `grasp-only` from a model path given as the
     name (a directory with grasp.pt and push.pt -> learned, with grasp.pt only or a single file -> grasp-only), or
-    from the name of a folder of SHIPPED_MODELS (e.g. "lite"; a path that exists wins).
+    from the name of a folder of the shipped models (pg_core.resources.shipped_models(), e.g. "lite"; a path that
+    exists wins).
 
     Raises UnknownPolicyError (a ValueError) listing the policies, FileNotFoundError for missing model files.
     """
@@ -88,8 +90,8 @@ def make_policy(name_or_path: str, opts: PolicyOptions | None = None) -> Policy:
                                     f"{', ' + PUSH_FILE if name_or_path == 'learned' else ''}) or model file(s)")
         return _construct(known[name_or_path], opts)
     path = Path(name_or_path).expanduser()
-    if not path.exists() and (SHIPPED_MODELS / name_or_path).is_dir():
-        path = SHIPPED_MODELS / name_or_path  # a shipped model by folder name, e.g. "lite"
+    if not path.exists() and (shipped_models() / name_or_path).is_dir():
+        path = shipped_models() / name_or_path  # a shipped model by folder name, e.g. "lite"
     if path.is_dir() or path.suffix == ".pt" or path.exists():
         kind = "learned" if (path.is_dir() and (path / PUSH_FILE).is_file()) else "grasp-only"
         if not path.exists():

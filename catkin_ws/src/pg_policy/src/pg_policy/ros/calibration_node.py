@@ -7,20 +7,18 @@ node at start-up with the reason.
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import rospy
 import tf2_ros
 from geometry_msgs.msg import TransformStamped
 
+from pg_core.resources import camera_calibration
 from pg_policy.perception.calibration import CalibrationError, load_extrinsics
-
-DEFAULT = Path(__file__).resolve().parents[4] / "pg_description" / "config" / "camera_calibration.yaml"
 
 
 def main() -> None:
     rospy.init_node("camera_calibration")
-    path = rospy.get_param("~file", str(DEFAULT))
+    path = rospy.get_param("~file") if rospy.has_param("~file") else str(camera_calibration())
     try:
         ext = load_extrinsics(path)
     except CalibrationError as exc:

@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 from pg_msgs.msg import Decision as DecisionMsg
 
-from pg_core.heightmap import Heightmap
+from pg_core.heightmap import Heightmap, pixel_to_world
 
 WORLD = "world"
 
@@ -100,5 +100,5 @@ def markers(hm: Heightmap, target: np.ndarray, rec: Any, stamp: Any) -> Any:
         for (c0, r0), (c1, r1) in zip(pts, np.roll(pts, -1, axis=0), strict=True):
             for c, r in ((c0, r0), (c1, r1)):
                 z = float(hm.height[r, c]) + b[2, 0] + 0.002
-                outline.points.append(Point(b[0, 0] + (c + 0.5) * res, b[1, 0] + (r + 0.5) * res, z))
+                outline.points.append(Point(*pixel_to_world(r, c, b, res), z))
     return MarkerArray(markers=[arrow, outline])

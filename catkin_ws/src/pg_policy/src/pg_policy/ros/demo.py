@@ -17,7 +17,7 @@ import sys
 import time
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[6]
+from pg_core.resources import project_root
 
 
 def free_port() -> int:
@@ -55,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     os.environ["ROS_MASTER_URI"] = f"http://127.0.0.1:{port}"
     args.out.mkdir(parents=True, exist_ok=True)
     log = open(args.out / "roslaunch.log", "w")
-    cmd = ["roslaunch", "-p", str(port), str(REPO / "launch" / "sim.launch"), f"scene:={args.scene}",
+    cmd = ["roslaunch", "-p", str(port), str(project_root() / "launch" / "sim.launch"), f"scene:={args.scene}",
            f"policy:={args.policy}", f"seed:={args.seed}"]
     print(f"[demo] policy: {args.policy}")
     print(f"[demo] {' '.join(cmd)}  (log: {args.out / 'roslaunch.log'})")
@@ -100,7 +100,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--target", default="green", help="target colour (default green)")
     ap.add_argument("--timeout", type=float, default=600.0, help="wall seconds for the grasp_target call")
     ap.add_argument("--startup-timeout", type=float, default=120.0, help="wall seconds for the stack to come up")
-    ap.add_argument("--out", type=Path, default=REPO / "demo_out", help="folder for before/after PNGs and the log")
+    ap.add_argument("--out", type=Path, default=project_root() / "demo_out",
+                    help="folder for before/after PNGs and the log")
     return run(ap.parse_args(argv))
 
 

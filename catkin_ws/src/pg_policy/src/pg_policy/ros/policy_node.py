@@ -14,7 +14,9 @@ the simulator's count of scene resets; a change during a call ends it with "the 
 on a real cell nothing publishes it and the subscriber never fires).
 A missing or corrupt model file, or a limit parameter out of range, ends the node at start-up with the reason (exit
 status 1). A request with a negative max_actions / max_failed_grasps or a NaN, infinite or negative timeout is
-refused with a message naming the field; nothing moves.
+refused with a message naming the field; nothing moves. The answer's message says why a call ended (the episode
+protocol's reason, pg_policy.target_loop.episode): "target 'green' grasped", "target lost: <why>" (it left the
+workspace), "gave up after 5 failed grasps", "action budget of 30 spent", "cancelled", ...
 Threads: every policy computation runs on the TargetLoop's one worker thread, whichever service or action thread
 asked (pg_policy.target_loop.worker: keeps the RSS flat over calls).
 """
@@ -39,7 +41,9 @@ from pg_policy.policies.policy import PolicyOptions
 from pg_policy.policies.registry import make_policy
 from pg_policy.ros import convert
 from pg_policy.ros.loop_io import ServiceExecutor, TopicHeightmapSource
+from pg_policy.target_loop.episode import CANCELLED, DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
 from pg_policy.target_loop.target_loop import (
+    DEFAULT_TIMEOUT_S,
     LoopError,
     LoopLimits,
     NoHeightmap,
@@ -56,9 +60,9 @@ class PolicyNode:
     def __init__(self) -> None:
         self.policy_name = str(rospy.get_param("~policy", "lite"))
         policy = make_policy(self.policy_name, PolicyOptions(overrides=options.from_params(rospy.get_param)))
-        self.limits = LoopLimits(int(rospy.get_param("~max_actions", 30)),
-                                 int(rospy.get_param("~max_failed_grasps", 5)),
-                                 float(rospy.get_param("~call_timeout", 600.0)))
+        self.limits = LoopLimits(int(rospy.get_param("~max_actions", DEFAULT_MAX_ACTIONS)),
+                                 int(rospy.get_param("~max_failed_grasps", DEFAULT_MAX_FAILED_GRASPS)),
+                                 float(rospy.get_param("~call_timeout", DEFAULT_TIMEOUT_S)))
         self.dry_run = bool(rospy.get_param("~dry_run", False))
         self.source = TopicHeightmapSource("/pg/heightmap")
         executor = ServiceExecutor(str(rospy.get_param("~execute_service", "/pg/execute_primitive")),
@@ -130,15 +134,17 @@ class PolicyNode:
         finally:
             self.feedback_ = None
             self.busy.release()
-        rospy.loginfo("grasp_target %s: %s (%d grasps, %d pushes, %.1f s)", req.target or "green", res.message,
-                      res.grasps, res.pushes, res.duration)
+        rospy.loginfo("grasp_target %s: %s [%s] (%d grasps, %d pushes, %.1f s)", req.target or "green",
+                      res.message, res.termination, res.grasps, res.pushes, res.duration)
         stamp = rospy.Time.now()
-        return {"success": res.success, "grasps": res.grasps, "pushes": res.pushes, "duration": res.duration,
-                "wall_time": res.wall_time, "message": res.message,
+        return {"termination": res.termination, "success": res.success, "grasps": res.grasps, "pushes": res.pushes,
+                "duration": res.duration, "wall_time": res.wall_time, "message": res.message,
                 "decisions": [convert.decision_msg(r, stamp) for r in res.actions]}
 
     def on_grasp_target(self, req) -> GraspTargetResponse:
-        return GraspTargetResponse(**self._call(req))
+        answer = self._call(req)
+        answer.pop("termination", None)  # the message says it in words ("target lost: ...", "cancelled", ...)
+        return GraspTargetResponse(**answer)
 
     def on_action_goal(self, handle) -> None:
         """Accept a goal unless busy (rejected: "busy"), then run it in its own thread; cancel between actions."""
@@ -161,10 +167,12 @@ class PolicyNode:
                                                         grasps=counts["grasp"], pushes=counts["push"]))
 
         try:
-            result = GraspTargetResult(**self._call(handle.get_goal(), cancel.is_set, feedback))
+            answer = self._call(handle.get_goal(), cancel.is_set, feedback)
+            termination = answer.pop("termination", "")
+            result = GraspTargetResult(**answer)
         finally:
             self.cancels_.pop(handle.get_goal_id().id, None)
-        if result.message == "cancelled":
+        if termination == CANCELLED:
             handle.set_canceled(result, "cancelled")
         elif result.success:
             handle.set_succeeded(result, result.message)

@@ -1,12 +1,18 @@
 """The grasp-a-target loop of the policy node, ROS-free (DESIGN.md sections 5 and 8).
 
-heightmap -> target mask -> policy decision -> execute the primitive -> wait for a fresh heightmap -> check, until
-the target is held, `max_failed_grasps` grasps failed, `max_actions` actions were taken, the call's time budget
-is spent (or MAX_FAILED_PRIMITIVES primitives in a row were refused or aborted), or the scene was replaced under
-the call (RESET_MESSAGE: the scene token `scene_epoch` changed, e.g. the simulator's reset count). The same
-stopping rules as pg_policy.evaluation.trials.run_trial; the difference is where observations and outcomes come from:
-a HeightmapSource (the /pg/heightmap topic in the node) and a PrimitiveExecutor (the /pg/execute_primitive
-service), so sim and real robot run the same loop.
+heightmap -> target mask -> target memory -> policy decision -> execute the primitive -> wait for a fresh heightmap
+-> check, under the one episode protocol (pg_policy.target_loop.episode, shared with the evaluation and training):
+until the target is held, it has left the workspace ("target lost: <why>"), `max_failed_grasps` grasps failed,
+`max_actions` actions were taken, MAX_FAILED_PRIMITIVES primitives in a row were refused or aborted, the call's time
+budget is spent, the call is cancelled, or the scene was replaced under the call (RESET_MESSAGE: the scene token
+`scene_epoch` changed, e.g. the simulator's reset count). What differs from the evaluation is where observations
+and outcomes come from: a HeightmapSource (the /pg/heightmap topic in the node) and a PrimitiveExecutor (the
+/pg/execute_primitive service), so sim and real robot run the same loop.
+
+A target not visible on the first heightmap of a call is refused before anything moves (LoopError). Once the call
+has acted, a hidden target is searched for where it was last seen (pg_policy.perception.target_memory; the policy
+gets the memory as `obs.search`), and a push that changed nothing is never repeated at the same place and rotation
+(the episode refuses it: a refused action).
 
 Which object a grasp lifted is not known to a real robot: the target counts as grasped when the gripper holds
 something (fingers not closed) and the target has left the next heightmap (fewer than TARGET_GONE_FRACTION of its
@@ -37,7 +43,17 @@ from pg_core.heightmap import Heightmap
 from pg_core.palette import normalize_name
 from pg_core.target_mask import MIN_VISIBLE_CELLS, hsv_window, target_mask
 from pg_policy.decision.decision import Decision
-from pg_policy.target_loop.limits import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
+from pg_policy.perception.target_memory import TargetSearch
+from pg_policy.target_loop.episode import (
+    CANCELLED,
+    COMPLETED,
+    ERROR,
+    SCENE_RESET,
+    TIME_BUDGET,
+    Episode,
+    Limits,
+    Outcome,
+)
 from pg_policy.target_loop.worker import PinnedThread
 
 TARGET_GONE_FRACTION = 0.2
@@ -90,17 +106,14 @@ class PrimitiveExecutor(Protocol):
 
 
 @dataclass(frozen=True)
-class LoopLimits:
-    max_actions: int = DEFAULT_MAX_ACTIONS
-    max_failed_grasps: int = DEFAULT_MAX_FAILED_GRASPS
+class LoopLimits(Limits):
+    """The episode's limits (pg_policy.target_loop.episode.Limits) plus the call's wall-clock budget."""
+
     timeout_s: float = DEFAULT_TIMEOUT_S  # wall-clock seconds for the whole call
 
     def __post_init__(self) -> None:
         """ValueError naming the field unless both counts are integers >= 1 and the timeout is finite and > 0."""
-        for name in ("max_actions", "max_failed_grasps"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        super().__post_init__()
         if not isinstance(self.timeout_s, numbers.Real) or not math.isfinite(self.timeout_s) or self.timeout_s <= 0:
             raise ValueError(f"timeout must be a finite number of seconds > 0, got {self.timeout_s!r}")
 
@@ -139,6 +152,7 @@ class ActionRecord:
     grasp_threshold: float = math.nan
     execution: Execution | None = None
     target_grasped: bool = False
+    note: str = ""  # why the policy took the decision (its last_note), e.g. "target hidden: searching where ..."
 
 
 @dataclass
@@ -151,7 +165,8 @@ class LoopResult:
     message: str = ""
     actions: list[ActionRecord] = field(default_factory=list)
     failed_grasps: int = 0
-    refused: int = 0  # primitives the controller refused or aborted
+    refused: int = 0  # primitives the controller refused or aborted, and futile pushes not repeated
+    termination: str = ""  # why the call ended: a termination of pg_policy.target_loop.episode ("" before it ran)
 
 
 def check_target(name: str) -> str:
@@ -169,10 +184,12 @@ def mask_of(hm: Heightmap, target: str) -> np.ndarray:
 
 @dataclass
 class PolicyObservation:
-    """What pg_policy.policies.registry act on: the heightmap and the target's colour name."""
+    """What pg_policy.policies.registry act on: the heightmap, the target's colour name and, within a call, the
+    target memory (pg_policy.perception.target_memory.TargetSearch; None: no memory, e.g. /pg/infer)."""
 
     heightmap: Heightmap
     target: str
+    search: TargetSearch | None = None
 
 
 class TargetLoop:
@@ -216,19 +233,28 @@ class TargetLoop:
         return float(getattr(self.policy, "threshold", math.nan))
 
     def decide(self, target: str, shm: StampedHeightmap, index: int = 0, episode: int = 0) -> ActionRecord:
-        """One decision on a heightmap; LoopError when the target is not visible there."""
+        """One decision on a heightmap with no target memory; LoopError when the target is not visible there."""
         return self.worker.call(self._decide, target, shm, index, episode)
 
-    def _decide(self, target: str, shm: StampedHeightmap, index: int = 0, episode: int = 0) -> ActionRecord:
+    def _decide(self, target: str, shm: StampedHeightmap, index: int = 0, episode: int = 0,
+                ep: Episode | None = None) -> ActionRecord | None:
+        """The decision on `shm`. Without an episode (or before its first action) LoopError when the target is not
+        visible; within one, the heightmap goes to the episode's target memory first, and None means the episode
+        ended on it (the target left the workspace)."""
         mask = mask_of(shm.heightmap, target)
         pixels = int(mask.sum())
-        if pixels < MIN_VISIBLE_CELLS:
+        if (ep is None or ep.actions == 0) and pixels < MIN_VISIBLE_CELLS:
             raise LoopError(f"target '{target}' not visible: {pixels} matching heightmap cells "
                             f"(at least {MIN_VISIBLE_CELLS} needed)")
-        decision = self.policy.act(PolicyObservation(shm.heightmap, target))
+        search = None
+        if ep is not None:
+            search = ep.observe(shm.heightmap, mask)
+            if ep.over():
+                return None
+        decision = self.policy.act(PolicyObservation(shm.heightmap, target, search))
         self.last_q = self.policy.q_maps()
         rec = ActionRecord(episode, index, target, self.policy_name, decision, shm.stamp, self.clock(), pixels,
-                           self.threshold)
+                           self.threshold, note=str(getattr(self.policy, "last_note", "")))
         if self.on_decision:
             self.on_decision(rec, shm)
         return rec
@@ -244,15 +270,22 @@ class TargetLoop:
 
     def _infer_on(self, target: str, shm: StampedHeightmap) -> ActionRecord:
         self.policy.reset(0)
-        return self._decide(target, shm)
+        rec = self._decide(target, shm)
+        assert rec is not None  # without an episode a decision is always taken (or LoopError raised)
+        return rec
 
     def run(self, target: str, limits: LoopLimits | None = None,
             cancelled: Callable[[], bool] | None = None) -> LoopResult:
         """One call: raises LoopError before anything moves (unknown colour, no heightmap, target not visible);
-        later problems end the call with success False and the reason in the result's message. `cancelled` is
-        asked between actions (a running primitive always finishes); True ends the call with message "cancelled".
-        A scene reset (see the class) ends it with RESET_MESSAGE."""
+        later problems end the call with success False and the reason in the result's message (and `termination`,
+        pg_policy.target_loop.episode). `cancelled` is asked between actions (a running primitive always finishes);
+        True ends the call with message "cancelled". A scene reset (see the class) ends it with RESET_MESSAGE; a
+        target that left the workspace with "target lost: <why>"."""
         return self.worker.call(self._run, target, limits or LoopLimits(), cancelled)
+
+    def _episode(self, target: str, limits: LoopLimits) -> Episode:
+        return Episode(Limits(limits.max_actions, limits.max_failed_grasps), target=target,
+                       max_refused_in_row=MAX_FAILED_PRIMITIVES)
 
     def _run(self, target: str, limits: LoopLimits, cancelled: Callable[[], bool] | None) -> LoopResult:
         target = check_target(target)
@@ -261,10 +294,11 @@ class TargetLoop:
         shm = self.source.wait_after(t0, self.heightmap_timeout_s)
         self.episode += 1
         self.policy.reset(self.episode)
+        ep = self._episode(target, limits)
         res = LoopResult(success=False)
-        rec = self._decide(target, shm, 0, self.episode)
+        rec = self._decide(target, shm, 0, self.episode, ep)
         try:
-            while True:
+            while rec is not None:
                 try:
                     self._check_scene()
                 except SceneReset:
@@ -274,30 +308,27 @@ class TargetLoop:
                     # call started), so the call decides anew on the scene now in front of the robot
                     self._epoch = self.scene_epoch()
                     self.policy.reset(self.episode)
+                    ep = self._episode(target, limits)
                     rec = self._decide(target, self.source.wait_after(self.clock(), self.heightmap_timeout_s), 0,
-                                       self.episode)
+                                       self.episode, ep)
                     continue
-                done = self._step(rec, res, limits, wall0)
-                res.message = done or res.message
-                if done:
-                    break
-                if res.failed_grasps >= limits.max_failed_grasps:
-                    res.message = f"gave up after {res.failed_grasps} failed grasps"
-                    break
-                if len(res.actions) >= limits.max_actions:
-                    res.message = f"action budget of {limits.max_actions} spent"
+                self._step(rec, res, ep, limits, wall0)
+                if ep.over():
                     break
                 if time.monotonic() - wall0 > limits.timeout_s:
-                    res.message = f"time budget of {limits.timeout_s:g} s spent"
+                    ep.stop(TIME_BUDGET, f"time budget of {limits.timeout_s:g} s spent")
                     break
                 if cancelled is not None and cancelled():
-                    res.message = "cancelled"
+                    ep.stop(CANCELLED, "cancelled")
                     break
-                rec = self._decide(target, self._fresh(rec), len(res.actions), self.episode)
+                rec = self._decide(target, self._fresh(rec), len(res.actions), self.episode, ep)
         except SceneReset:
-            res.message = f"{RESET_MESSAGE}: stopped after {len(res.actions)} actions"
+            ep.stop(SCENE_RESET, f"{RESET_MESSAGE}: stopped after {len(res.actions)} actions")
         except LoopError as exc:
-            res.message = f"stopped after {len(res.actions)} actions: {exc}"
+            ep.stop(ERROR, f"stopped after {len(res.actions)} actions: {exc}")
+        ep.over()
+        res.success, res.message, res.termination = ep.termination == COMPLETED, ep.why, ep.termination
+        res.grasps, res.pushes, res.failed_grasps, res.refused = ep.grasps, ep.pushes, ep.failed_grasps, ep.refused
         res.duration, res.wall_time = self.clock() - t0, time.monotonic() - wall0
         return res
 
@@ -319,37 +350,22 @@ class TargetLoop:
             self._check_scene()
         return self._after
 
-    def _step(self, rec: ActionRecord, res: LoopResult, limits: LoopLimits, wall0: float) -> str:
-        """Execute one decision and record its outcome; returns a non-empty message when the call is over. The
-        record reaches on_action also when checking its outcome raised (no heightmap, scene reset)."""
-        budget = max(limits.timeout_s - (time.monotonic() - wall0), 1.0)
-        ex = self.executor.execute(rec.decision, budget)
+    def _step(self, rec: ActionRecord, res: LoopResult, ep: Episode, limits: LoopLimits, wall0: float) -> None:
+        """Execute one decision (unless the episode refuses it: a futile push repeated) and count its outcome in
+        `ep`. The record reaches on_action also when checking its outcome raised (no heightmap, scene reset)."""
+        veto = ep.vet(rec.decision)
+        if veto is not None:
+            ex = Execution(False, False, "", veto, 0.0, self.clock())
+        else:
+            ex = self.executor.execute(rec.decision, max(limits.timeout_s - (time.monotonic() - wall0), 1.0))
         rec.execution = ex
         res.actions.append(rec)
         try:
-            return self._outcome(rec, ex, res)
+            if ex.success and rec.decision.primitive == "grasp" and ex.grasped:
+                after = mask_of(self._fresh(rec).heightmap, rec.target).sum()
+                rec.target_grasped = bool(after < max(MIN_VISIBLE_CELLS, TARGET_GONE_FRACTION * rec.target_pixels))
         finally:
+            ep.record(rec.decision, Outcome(refused=not ex.success, target_grasped=rec.target_grasped,
+                                            message=ex.message))
             if self.on_action:
                 self.on_action(rec)
-
-    def _outcome(self, rec: ActionRecord, ex: Execution, res: LoopResult) -> str:
-        if not ex.success:
-            res.refused += 1
-            streak = 0
-            for r in reversed(res.actions):
-                if r.execution is None or r.execution.success:
-                    break
-                streak += 1
-            return f"{streak} primitives in a row failed, last: {ex.message}" if streak >= MAX_FAILED_PRIMITIVES else ""
-        if rec.decision.primitive == "push":
-            res.pushes += 1
-            return ""
-        res.grasps += 1
-        if ex.grasped:
-            after = mask_of(self._fresh(rec).heightmap, rec.target).sum()
-            rec.target_grasped = after < max(MIN_VISIBLE_CELLS, TARGET_GONE_FRACTION * rec.target_pixels)
-        if rec.target_grasped:
-            res.success = True
-            return f"target '{rec.target}' grasped"
-        res.failed_grasps += 1
-        return ""

@@ -8,9 +8,13 @@ the learner adds. A collector never learns: it acts with the nets it is given (s
 loop, or its own copies that `set_weights` refreshes when it runs in a Ray actor).
 
 Episode numbering: collector `index` of `count` numbers its episodes first_episode + index + 1, + count, + 2 count,
-...; an episode's scene seed is (seed * 100_003 + episode) % 1_000_000, so the collectors of one run play disjoint
-scenes, and one collector (index 0 of 1) numbers them first_episode + 1, + 2, ... as the serial loop always did.
-A scene whose target is not visible is skipped (the number is used up).
+...; an episode's scene seed is pg_core.seeds.train_seed(seed, episode), below the evaluation seeds, so the
+collectors of one run play disjoint scenes, and one collector (index 0 of 1) numbers them first_episode + 1, + 2, ...
+as the serial loop always did. A scene whose target is not visible is skipped (the number is used up).
+
+Episodes follow the one episode protocol (pg_policy.target_loop.episode: limits, counting, termination reasons, the
+target memory); a goal-conditioned episode also ends when its target is not visible (termination target_hidden: an
+empty goal mask has no push region to learn about), a goal-agnostic one when the scene is empty (scene_empty).
 """
 
 from __future__ import annotations
@@ -24,11 +28,13 @@ import numpy as np
 import torch
 
 from pg_core.geometry import Geometry, load
+from pg_core.seeds import train_seed
 from pg_core.target_mask import MIN_VISIBLE_CELLS, target_mask
 from pg_policy.environment.sim_env import EnvObservation, SimEnv, StepResult
 from pg_policy.models.nets.qnet import QNet
 from pg_policy.perception import scene_change
 from pg_policy.policies.heuristic_planner import HeuristicPlanner
+from pg_policy.target_loop.episode import SCENE_EMPTY, TARGET_HIDDEN, TARGET_LOST, Episode, Limits, Outcome
 from pg_policy.training import qtensor, rewards
 from pg_policy.training.config import TrainConfig, scene_list
 from pg_policy.training.experience_replay import Transition
@@ -56,6 +62,14 @@ class Action:
     goal: np.ndarray
     goal_color: str | None
 
+    @property
+    def x(self) -> float:
+        return self.pose[0]
+
+    @property
+    def y(self) -> float:
+        return self.pose[1]
+
 
 class Collector:
     """A simulator, the stage's acting rules and the nets to act with, for one stream of episodes.
@@ -82,7 +96,9 @@ class Collector:
         self.rng = rng
         self.episode = first_episode + index + 1 - count  # the last episode this collector started (none yet)
         self.weights_iteration = -1  # learner iteration of the weights last set (-1: the nets as given)
-        self.ep_: dict[str, int] = {}
+        self.ep_ = Episode(self._limits())  # the running episode (pg_policy.target_loop.episode)
+        self.pushes_ = 0  # pushes chosen in the running episode (the push stage's budget)
+        self.in_row_ = 0  # pushes chosen in a row (the push budget of the alternate stage)
         self.obs_: EnvObservation | None = None  # the observation to act on; None: start an episode first
         self.env = SimEnv(self.geo, sim_mode=cfg.sim_mode)
         self.guide = None
@@ -121,7 +137,7 @@ class Collector:
         obs, errors = None, []
         for _ in range(draws):
             self.episode += self.count
-            seed = (self.cfg.seed * 100_003 + self.episode) % 1_000_000
+            seed = train_seed(self.cfg.seed, self.episode)
             scene = self.scenes_[(self.episode - 1) % len(self.scenes_)]
             try:
                 self.env.reset(scene, seed=seed)
@@ -130,27 +146,44 @@ class Collector:
                 print(f"[train] episode {self.episode}: scene {scene} seed {seed} skipped: {exc}", file=sys.stderr)
                 continue
             self._pick_target()
-            self.ep_ = {"actions": 0, "failed": 0, "pushes": 0, "in_row": 0}
+            self.ep_ = Episode(self._limits(), target=self.env.target, goal_agnostic=self.stage.goal_agnostic)
+            self.pushes_ = self.in_row_ = 0
             obs = self.env.observe()
+            self._observe(obs)
             if not self._episode_over(obs):
                 break
         if obs is None:
             raise RuntimeError(f"no training scene could be built in {draws} draws; last: {errors[-1]}")
         return obs
 
+    def _limits(self) -> Limits:
+        return Limits(self.cfg.max_actions, self.cfg.max_failed_grasps)
+
+    def _observe(self, obs: EnvObservation) -> None:
+        """Goal-conditioned stages: tell the episode the observation (its target memory; the simulator's ground truth
+        decides target_lost)."""
+        if not self.stage.goal_agnostic:
+            self.ep_.observe(obs.heightmap, self._goal(obs)[0], self.env.target_outside())
+
     def _episode_over(self, obs: EnvObservation | None = None) -> bool:
-        """Budget spent, scene empty, or (goal-conditioned stages) the target gone or not visible in `obs`: an
-        action on an empty goal mask has no target to learn about (its push region and change region are empty)."""
-        ep, cfg = self.ep_, self.cfg
-        if ep["actions"] >= cfg.max_actions or ep["failed"] >= cfg.max_failed_grasps:
+        """The episode protocol's verdict (target grasped, target lost, failed grasps, budget), the scene empty, or
+        (goal-conditioned stages) the target gone or not visible in `obs`: an action on an empty goal mask has no
+        target to learn about (its push region and change region are empty)."""
+        ep = self.ep_
+        if ep.over():
             return True
         if len(self.env.world.objects) == 0:
+            ep.stop(SCENE_EMPTY, "no object left")
             return True
         if self.stage.goal_agnostic:
             return False
         if not self.env.target_present():
+            ep.stop(TARGET_LOST, "the target is gone from the scene")
             return True
-        return obs is not None and int(self._goal(obs)[0].sum()) < MIN_VISIBLE_CELLS
+        if obs is not None and int(self._goal(obs)[0].sum()) < MIN_VISIBLE_CELLS:
+            ep.stop(TARGET_HIDDEN, "target not visible")
+            return True
+        return False
 
     # -- one action --------------------------------------------------------------------------------------------
     def step(self, iteration: int) -> tuple[Transition, dict[str, Any]]:
@@ -161,9 +194,12 @@ class Collector:
         obs = self.obs_
         action = self.act(obs, iteration)
         result = self.env.step(action.primitive, *action.pose)
-        self.ep_["actions"] += 1
         nxt = self.env.observe()
         transition, success = self.label(obs, action, result, nxt)
+        self.pushes_ += int(action.primitive == "push")
+        self.ep_.record(action, Outcome(refused=result.refused, target_grasped=action.primitive == "grasp" and success,
+                                        message=result.message))
+        self._observe(nxt)
         self.obs_ = nxt
         q = action.q[action.primitive][action.rotation, action.row, action.col] if action.q is not None else None
         row = {"iteration": iteration, "episode": self.episode, "primitive": action.primitive,
@@ -185,9 +221,9 @@ class Collector:
             q = qtensor.q_maps(self.nets, hm, goal, ROLES if self.stage.uses_push else ("grasp",))
             gmax = qtensor.masked_max(q["grasp"], goal)
         threshold = cfg.early_grasp_threshold if self.stage.name == "push" else cfg.grasp_threshold
-        primitive = choose_primitive(self.stage, gmax, self.ep_["pushes"], threshold, cfg.max_pushes,
-                                     self.ep_["in_row"], cfg.push_budget)
-        self.ep_["in_row"] = self.ep_["in_row"] + 1 if primitive == "push" else 0
+        primitive = choose_primitive(self.stage, gmax, self.pushes_, threshold, cfg.max_pushes, self.in_row_,
+                                     cfg.push_budget)
+        self.in_row_ = self.in_row_ + 1 if primitive == "push" else 0
         region = goal if primitive == "grasp" else qtensor.push_region(goal, self.geo)
         guided = None
         if explored and self.guide is not None and self.rng.random() < cfg.guided_exploration:
@@ -213,10 +249,8 @@ class Collector:
             pixel_color = qtensor.color_at(hm, row, col)
             reward = rewards.grasp_reward(result.grasped_color is not None and result.grasped_color == pixel_color)
             success = result.target_grasped if action.goal_color else result.grasped_color is not None
-            self.ep_["failed"] += 0 if success else 1
             mask = target_mask(hm.color, hm.valid, pixel_color) if pixel_color else goal
             return Transition(hm.color, hm.height, mask, "grasp", rot, row, col, reward), success
-        self.ep_["pushes"] += 1
         nmask = target_mask(nxt.heightmap.color, nxt.heightmap.valid, obs.target)
         q_after = qtensor.q_maps(self.nets, nxt.heightmap, nmask, ("grasp",))
         changed = scene_change.scene_changed(hm, nxt.heightmap, goal, radius_m=scene_change.PUSH_CHANGE_RADIUS_M)

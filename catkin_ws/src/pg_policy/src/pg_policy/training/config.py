@@ -6,11 +6,11 @@ import argparse
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 
+from pg_core.seeds import MIN_EVAL_SEED  # training seeds are below it, evaluation seeds from it on (disjoint)
 from pg_policy.models.device import check_device
+from pg_policy.target_loop.episode import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS, check_train_seed
 from pg_sim.world.scene_families import FAMILIES, GENERATED  # the simulator's generated scene families
 from pg_sim.world.sim_mode import get_sim_mode
-
-TRAIN_SEED_LIMIT = 1_000_000  # training seeds are < this; evaluation seeds are >= this (disjoint)
 
 
 def _f(default, help_text: str, **kw):
@@ -34,7 +34,7 @@ class TrainConfig:
                                  "train-novel-N, train-novel-packed-N or train-mixed-N (training objects of the "
                                  "catalogue); a comma-separated list (e.g. dense-8,train-mixed-10) takes them in "
                                  "turn, one per episode")
-    seed: int = _f(0, f"training seed (< {TRAIN_SEED_LIMIT}; evaluation uses seeds >= {TRAIN_SEED_LIMIT})")
+    seed: int = _f(0, f"training seed (< {MIN_EVAL_SEED}; evaluation uses seeds >= {MIN_EVAL_SEED})")
     lr: float = _f(1e-4, "Adam learning rate (paper: 1e-4)")
     weight_decay: float = _f(2e-5, "Adam weight decay (paper: 2e-5)")
     gamma: float = _f(0.5, "discount factor (paper: 0.5)")
@@ -54,8 +54,8 @@ class TrainConfig:
                                         "taken from the heuristic baseline's push rule / free-grasp rule instead of "
                                         "uniformly at random (uniform when the rule has none); rewards stay the "
                                         "simulator's (0 = the paper's uniform exploration)")
-    max_actions: int = _f(30, "actions per episode before the scene is reset")
-    max_failed_grasps: int = _f(5, "failed grasps per episode before the scene is reset")
+    max_actions: int = _f(DEFAULT_MAX_ACTIONS, "actions per episode before the scene is reset")
+    max_failed_grasps: int = _f(DEFAULT_MAX_FAILED_GRASPS, "failed grasps per episode before the scene is reset")
     checkpoint_every: int = _f(50, "iterations between checkpoints")
     threads: int = _f(2, "torch CPU threads")
     device: str = _f("cpu", "torch device of the nets: cpu | cuda | cuda:N (the simulator always runs on the CPU)")
@@ -85,8 +85,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def from_args(args: argparse.Namespace) -> TrainConfig:
     cfg = TrainConfig(**{f.name: getattr(args, f.name) for f in fields(TrainConfig)})
-    if not 0 <= cfg.seed < TRAIN_SEED_LIMIT:
-        raise ValueError(f"training seed {cfg.seed} must be in [0, {TRAIN_SEED_LIMIT}) (evaluation seeds are above)")
+    check_train_seed(cfg.seed)
     scene_list(cfg.scene)
 
     if cfg.collectors < 0:

@@ -20,7 +20,7 @@ from pg_policy.decision.decision import masked_max as _masked_max
 from pg_policy.decision.decision import push_region as _push_region
 from pg_policy.models.nets.qnet import QNet, QNetConfig, build_qnet
 
-OBJECT_HEIGHT_M = 0.005  # cells lower than this are table, not an object
+COLOR_HEIGHT_M = 0.005  # color_at: cells lower than this show the table, not an object's colour
 
 
 def build(cfg: Any, role: str) -> QNet:
@@ -86,7 +86,7 @@ def action_pose(hm: Heightmap, primitive: str, rot: int, row: int, col: int, geo
 
 def color_at(hm: Heightmap, row: int, col: int) -> str | None:
     """Palette name of the object under a cell (nearest colour), None over the table."""
-    if not hm.valid[row, col] or hm.height[row, col] < OBJECT_HEIGHT_M:
+    if not hm.valid[row, col] or hm.height[row, col] < COLOR_HEIGHT_M:
         return None
     rgb = hm.color[row, col].astype(np.float64)
     names = list(COLORS)

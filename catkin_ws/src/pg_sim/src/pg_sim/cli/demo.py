@@ -15,12 +15,10 @@ from pathlib import Path
 import numpy as np
 
 from pg_core import heightmap as hm
-from pg_core.action_geometry import grasp_z
+from pg_core.action_geometry import grasp_z_at
 from pg_sim.world.primitives import PrimitiveExecutor, PrimitiveRefused
 from pg_sim.world.render import render_scene_png
 from pg_sim.world.scene_source import make_world_with_scene
-
-STEP = np.pi / 8
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -40,10 +38,12 @@ def main(argv: list[str] | None = None) -> int:
             x, y, _, _, _, yaw = world.object_poses()[world.target_id]
             obs = world.observe()
             r, c = hm.world_to_pixel(x, y, obs.heightmap.bounds, obs.heightmap.resolution)
-            rot = round((yaw % np.pi) / STEP) % 16  # fingers close along the object's x axis
+            rotations = world.geometry.heightmap.rotations
+            rot = round((yaw % np.pi) / hm.rotation_step(rotations)) % rotations  # closing along the object's x axis
+            yaw = hm.rotation_yaw(rot, rotations)
             try:
-                res = ex.grasp(float(x), float(y), grasp_z(obs.heightmap.height, r, c, world.geometry.primitives),
-                               rot * STEP)
+                res = ex.grasp(float(x), float(y), grasp_z_at(obs.heightmap, r, c, world.geometry.primitives, yaw=yaw),
+                               yaw)
             except PrimitiveRefused as exc:
                 print(f"attempt {attempt}: refused: {exc}")
                 continue

@@ -28,8 +28,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                          help="seeds, one scene per seed (default 1000000 1000001 1000002)")
     gallery.set_defaults(run=_gallery)
 
-    objects = cmds.add_parser("objects", help="list the object catalogue: kinds, splits and id ranges")
+    objects = cmds.add_parser("objects", help="list the object catalogue: kinds, household categories, splits and "
+                                              "id ranges")
     objects.set_defaults(run=_objects)
+
+    household = cmds.add_parser("household-gallery", help="render training and held-out examples of each household "
+                                                          "category at rest, one PNG per category")
+    household.add_argument("--out-dir", required=True, type=Path, help="folder for <category>.png")
+    household.add_argument("categories", nargs="*", help="categories to render (default: all)")
+    household.set_defaults(run=_household_gallery)
 
     from pg_sim.scenes.vpg_import import add_arguments
 
@@ -47,6 +54,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        help="simulation modes to time, each from the same seed (default: all, with the ratio to the "
                             "first)")
     bench.set_defaults(run=_bench)
+
+    from pg_sim.world.grasp_probe import add_arguments as probe_arguments
+
+    probe = cmds.add_parser("grasp-probe", help="success of grasps at the cells a policy could pick on household "
+                                                "objects (rims, walls, handles, blades), per grasp-height rule")
+    probe_arguments(probe)
+    probe.set_defaults(run=_grasp_probe)
 
 
 def _list(args: argparse.Namespace) -> int:
@@ -73,14 +87,34 @@ def _gallery(args: argparse.Namespace) -> int:
 
 
 def _objects(args: argparse.Namespace) -> int:
-    from pg_sim.objects.catalog import KINDS, object_ids
+    from pg_sim.objects.catalog import KINDS, household_ids, object_ids
+    from pg_sim.objects.household import CATEGORIES
 
     train, held = object_ids("train"), object_ids("heldout")
-    print(f"{'kind':10s} {'train':>6s} {'held-out':>9s}  held-out ids")
+    print(f"{'kind':12s} {'train':>6s} {'held-out':>9s}  held-out ids")
     for kind in KINDS:
         ids = held[kind]
         span = ", ".join(i.split("/")[1] for i in ids) if kind == "named" else f"{ids[0]} .. {ids[-1]}"
-        print(f"{kind:10s} {len(train[kind]):6d} {len(ids):9d}  {span}")
+        print(f"{kind:12s} {len(train[kind]):6d} {len(ids):9d}  {span}")
+    train, held = household_ids("train"), household_ids("heldout")
+    print(f"\n{'household':12s} {'train':>6s} {'held-out':>9s}  held-out ids: main dimension band; variants")
+    for kind, cat in CATEGORIES.items():
+        ids = held[kind]
+        only = f" (held-out only: {', '.join(cat.held_variants)})" if cat.held_variants else ""
+        print(f"{kind:12s} {len(train[kind]):6d} {len(ids):9d}  {ids[0]} .. {ids[-1]}: {cat.main} "
+              f"{cat.held[0]:g}-{cat.held[1]:g} of {cat.span[0]:g}-{cat.span[1]:g}; {' '.join(cat.variants)}{only}")
+    return 0
+
+
+def _household_gallery(args: argparse.Namespace) -> int:
+    from pg_sim.objects.catalog import HOUSEHOLD_KINDS
+    from pg_sim.objects.household_gallery import render_category_png
+
+    unknown = [c for c in args.categories if c not in HOUSEHOLD_KINDS]
+    if unknown:
+        raise ValueError(f"unknown household categories {unknown}; known: {', '.join(HOUSEHOLD_KINDS)}")
+    for category in args.categories or HOUSEHOLD_KINDS:
+        print(f"wrote {render_category_png(category, args.out_dir / f'{category}.png')}", flush=True)
     return 0
 
 
@@ -110,6 +144,12 @@ def _bench(args: argparse.Namespace) -> int:
               f"{other.median_primitive_s:.3f} s ({other.mode} / {first.mode} = "
               f"{other.median_primitive_s / first.median_primitive_s:.2f})")
     return 0
+
+
+def _grasp_probe(args: argparse.Namespace) -> int:
+    from pg_sim.world.grasp_probe import execute
+
+    return execute(args)
 
 
 def _import(args: argparse.Namespace) -> int:

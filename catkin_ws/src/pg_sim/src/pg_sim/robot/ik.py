@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from pg_core.geometry import Geometry
-from pg_sim.robot.kinematics import arm_base_pose, down_pose, tcp_fk
+from pg_sim.robot.kinematics import arm_base_pose, down_pose
 from pg_sim.robot.ur_ik import closest, ik_all
 
 
@@ -38,7 +38,3 @@ class IkSolver:
         r = self.geometry_.robot
         sols = ik_all(self.tool0_target(arm, pos, yaw), r.dh_d, r.dh_a, r.dh_alpha, branch=r.arms[arm].ik_branch)
         return closest(sols, np.asarray(seed, dtype=np.float64), self.lower_, self.upper_)
-
-    def fk(self, arm: str, q: np.ndarray) -> np.ndarray:
-        """4x4 world <- TCP at joint angles q."""
-        return tcp_fk(self.geometry_, arm, q)

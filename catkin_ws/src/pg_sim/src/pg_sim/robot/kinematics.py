@@ -17,18 +17,6 @@ from typing import Any
 import numpy as np
 
 
-def rot_x(angle: float) -> np.ndarray:
-    """3x3 rotation about x by ``angle`` (rad)."""
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-
-
-def rot_z(angle: float) -> np.ndarray:
-    """3x3 rotation about z by ``angle`` (rad)."""
-    c, s = np.cos(angle), np.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
 def rpy_matrix(rpy: Sequence[float]) -> np.ndarray:
     """3x3 rotation of URDF/ROS fixed-axis roll-pitch-yaw (rad): R = Rz(yaw) Ry(pitch) Rx(roll)."""
     r, p, y = (float(v) for v in rpy)

@@ -9,6 +9,7 @@ objects:
     size: [0.045, 0.045, 0.045]   # optional bounding-box extents (m); default from the registry; not for meshes
     scale: 1.0                # meshes only: one factor or [sx, sy, sz]
     mass: 0.08                # optional, kg; default: the shape's (meshes: from the volume)
+    friction: 0.5             # optional lateral friction coefficient in (0, 2]; default: the simulator's
     color: green              # name or [r, g, b] 0-255
     pose: [x, y, z, roll, pitch, yaw]   # in `world`, metres / radians, ROS fixed-axis roll-pitch-yaw
     target: true              # optional; exactly one target. Without one, the unique object of the target colour
@@ -37,7 +38,7 @@ from pg_core.palette import shown_name
 from pg_sim.scenes.colors import PALETTE, color_name, resolve_color
 from pg_sim.scenes.meshes import mesh_extents
 from pg_sim.scenes.scene_limits import DEFAULT_LIMITS, SceneLimits
-from pg_sim.scenes.scene_yaml import SceneLoader
+from pg_sim.scenes.scene_yaml import SceneLoader, check_friction
 from pg_sim.scenes.shapes import REGISTRY, known_shapes
 from pg_sim.scenes.short_repr import short
 
@@ -47,7 +48,7 @@ _PKG_SCENES = (
     Path(__file__).resolve().parents[5] / "share" / "pg_sim" / "scenes",  # install space: lib/python3/dist-packages
 )
 _TOP_KEYS = {"name", "target", "family", "objects"}
-_OBJECT_KEYS = {"shape", "size", "scale", "color", "pose", "target", "name", "mesh", "mass"}
+_OBJECT_KEYS = {"shape", "size", "scale", "color", "pose", "target", "name", "mesh", "mass", "friction"}
 
 Pose = tuple[float, float, float, float, float, float]
 MIN_MASS, MAX_MASS = 0.001, 5.0  # kg: the masses a scene object may be given
@@ -61,8 +62,8 @@ class SceneError(ValueError):
 class ObjectSpec:
     """One object: shape name, bounding-box size (m, None = default), RGB 0-255, pose in `world`
     (x, y, z, roll, pitch, yaw; metres, radians, ROS fixed-axis rpy about the shape's bounding-box centre),
-    absolute mesh path for shape ``mesh``, target flag, unique name, the mesh scale factors and the mass (kg, None =
-    the shape's default)."""
+    absolute mesh path for shape ``mesh``, target flag, unique name, the mesh scale factors, the mass (kg, None =
+    the shape's default) and the lateral friction coefficient (None = the simulator's default)."""
 
     shape: str
     size: tuple[float, float, float] | None
@@ -73,6 +74,7 @@ class ObjectSpec:
     name: str = ""
     scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
     mass: float | None = None
+    friction: float | None = None
 
 
 @dataclass(frozen=True)
@@ -219,8 +221,12 @@ def _parse_object(raw: Any, i: int, source: str, base_dir: Path, lines: _Lines, 
     if mass is not None and (isinstance(mass, bool) or not isinstance(mass, int | float)
                              or not MIN_MASS <= mass <= MAX_MASS):
         raise fail(f"mass must be a number of kg in [{MIN_MASS}, {MAX_MASS}], got {short(mass)}", "mass")
+    try:
+        friction = None if raw.get("friction") is None else check_friction(raw["friction"])
+    except ValueError as e:
+        raise fail(f"{short(name)}: {e}", "friction") from None
     return ObjectSpec(shape, size, color, pose, mesh, target, name, scale,  # type: ignore[arg-type]
-                      None if mass is None else float(mass))
+                      None if mass is None else float(mass), friction)
 
 
 def parse_scene(
@@ -348,6 +354,8 @@ def scene_to_dict(scene: SceneSpec, base_dir: str | Path | None = None) -> dict[
         d["pose"] = [float(v) for v in o.pose]
         if o.mass is not None:
             d["mass"] = float(o.mass)
+        if o.friction is not None:
+            d["friction"] = float(o.friction)
         if o.target:
             d["target"] = True
         objects.append(d)

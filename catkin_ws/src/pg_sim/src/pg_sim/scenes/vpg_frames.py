@@ -15,7 +15,7 @@ Source workspaces (``SOURCES``; the square of side 0.448 m, as ours, that the so
 with their centres in the FILE's coordinates (mapping that centre onto `world` puts every object where the source put
 it relative to its workspace):
 - ``vpg``: VPG's CoppeliaSim workspace x in [-0.724, -0.276], y in [-0.224, 0.224]: centre (-0.5, 0).
-- ``xu``: Xu et al.'s loader (and the paper authors' [K], README of ../shared/reference) adds +0.1 m to the file's y
+- ``xu``: Xu et al.'s loader (and the paper authors' [K], docs/DESIGN.md section 6) adds +0.1 m to the file's y
   before placing an object in that same CoppeliaSim workspace (their main.py keeps y in [-0.224, 0.224]), so in the
   file's coordinates the workspace is y in [-0.324, 0.124]: centre (-0.5, -0.1); the object lands at
   (x + 0.5, y + 0.1) in `world`, exactly where their simulator put it. (Their test files are VPG's, e.g.

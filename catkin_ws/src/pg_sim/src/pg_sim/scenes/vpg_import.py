@@ -22,7 +22,7 @@ the palette colour the target is named by) the goal is ambiguous: SceneError nam
 ``target_color`` recolours the target to a colour no other object has.
 
 ``centre="rows"`` (CLI ``--centre rows``) keeps the old behaviour: the scene is centred on the xy centre of the
-bounding box of the imported rows; for files without parked rows (all of ../shared/reference/cases) this is the old
+bounding box of the imported rows; for files without parked rows (all of the paper authors' case files) this is the old
 importer's output exactly. The reference-case tests (pg_sim/test/test_vpg_import.py) use it where they compare
 poses relative to the rows (Gazebo copy vs CoppeliaSim file) and check that both modes give the same scene up to a
 translation. The shipped scenes under scenes/{packed,household} are left as they are: they are not this importer's

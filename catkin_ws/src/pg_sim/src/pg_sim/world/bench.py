@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pg_core import heightmap as hm
-from pg_core.action_geometry import grasp_z, push_z
+from pg_core.action_geometry import grasp_z_at, push_z
 from pg_sim.world.primitives import PrimitiveExecutor, PrimitiveRefused
 from pg_sim.world.random_scene import drop_scene, sample_drops
 from pg_sim.world.sim_mode import DEFAULT_SIM_MODE
@@ -66,13 +66,15 @@ def run(objects: int = 20, primitives: int = 20, observations: int = 20, seed: i
             obs = world.observe()
             body = list(world.objects)[int(rng.integers(len(world.objects)))]
             x, y = world.object_poses()[body][:2]
-            yaw = int(rng.integers(16)) * np.pi / 8
+            rotations = world.geometry.heightmap.rotations
+            yaw = hm.rotation_yaw(int(rng.integers(rotations)), rotations)
             grasp = len(prim_s) % 2 == 0
             if not grasp:
                 x, y = x - 0.04 * np.cos(yaw), y - 0.04 * np.sin(yaw)
             r, c = hm.world_to_pixel(x, y, obs.heightmap.bounds, obs.heightmap.resolution)
             r, c = int(np.clip(r, 0, 223)), int(np.clip(c, 0, 223))
-            z = (grasp_z if grasp else push_z)(obs.heightmap.height, r, c, world.geometry.primitives)
+            prims = world.geometry.primitives
+            z = grasp_z_at(obs.heightmap, r, c, prims, yaw=yaw) if grasp else push_z(obs.heightmap.height, r, c, prims)
             t, t_sim = time.perf_counter(), world.sim_time
             try:
                 (ex.grasp if grasp else ex.push)(float(x), float(y), z, yaw)

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from pg_sim.world.world import World
 
 
@@ -43,12 +41,6 @@ def render_scene_png(world: World, out: Path, title: str | None = None) -> Path:
     visible = int((labels == target).sum()) if target is not None else 0
     fig.suptitle(title or f"{name}: {len(world.objects)} objects, target visible in {visible} heightmap cells")
     return _save(fig, out)
-
-
-def target_visible_cells(world: World) -> int:
-    """Heightmap cells whose top surface belongs to the target (ground truth)."""
-    obs = world.capture()
-    return int(np.sum(world.label_heightmap(obs) == world.target_id))
 
 
 def render_gallery_png(family: str, seeds: list[int], out: Path) -> Path:

@@ -88,7 +88,11 @@ class World:
         self.scene = None
 
     def add_object(self, spec: ObjectSpec) -> int:
+        """Spawn ``spec``; returns its body id. Its ``friction`` (when not None) replaces the default lateral
+        friction; without one, the body is exactly as spawn_object makes it."""
         body = spawn_object(self.client, spec)
+        if spec.friction is not None:
+            p.changeDynamics(body, -1, lateralFriction=float(spec.friction), physicsClientId=self.client)
         self.objects[body] = spec
         if spec.target:
             self.target_id = body

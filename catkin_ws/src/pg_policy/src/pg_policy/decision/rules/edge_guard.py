@@ -26,14 +26,13 @@ import math
 import numpy as np
 
 from pg_core.geometry import Geometry
-from pg_core.heightmap import Heightmap, cell_centres, pixel_to_world
+from pg_core.heightmap import OBJECT_HEIGHT_M, TOP_K, Heightmap, cell_centres, pixel_to_world, rotation_yaw
 from pg_policy.decision.option import PolicyOption
 from pg_policy.decision.rules.rule import CandidateTest, Rule, RuleContext
 
 MARGIN_M = 0.03  # the predicted target centre should stay this far inside the workspace (the heuristic's edge_margin)
-OCCUPIED_M = 0.008  # cells higher than this hold an object (the heuristic's `occupied`)
+OCCUPIED_M = OBJECT_HEIGHT_M  # cells higher than this hold an object (pg_core.heightmap; the heuristic's `occupied`)
 GAP_CELLS = 4  # objects this many cells (8 mm) apart or closer count as touching: the pusher closes such gaps
-TOP_K = 200  # push candidates examined per decision
 
 
 class EdgeGuard(Rule):
@@ -103,6 +102,6 @@ class EdgeGuard(Rule):
 
         def allowed(r: int, row: int, col: int) -> bool:
             start = np.array(pixel_to_world(row, col, hm.bounds, hm.resolution))
-            return self.allows(t_xy, start, r * 2 * math.pi / self.rotations, c_xy)
+            return self.allows(t_xy, start, rotation_yaw(r, self.rotations), c_xy)
 
         return allowed

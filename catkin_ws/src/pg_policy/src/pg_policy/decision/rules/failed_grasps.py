@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from pg_core.geometry import Geometry
-from pg_core.heightmap import Heightmap
+from pg_core.heightmap import Heightmap, cell_centre_axes
 from pg_policy.decision.option import PolicyOption
 from pg_policy.decision.rules.rule import Rule, RuleContext
 
@@ -95,8 +95,7 @@ def suppress_near(q: np.ndarray, hm: Heightmap, actions: list[tuple[tuple[int, .
         return q
     out = np.array(q, dtype=np.float64, copy=True)
     rows, cols = out.shape[1:]
-    xs = hm.bounds[0, 0] + (np.arange(cols) + 0.5) * hm.resolution
-    ys = hm.bounds[1, 0] + (np.arange(rows) + 0.5) * hm.resolution
+    xs, ys = cell_centre_axes(rows, cols, hm.bounds, hm.resolution)
     for rotations, x, y in actions:
         near = (ys[:, None] - y) ** 2 + (xs[None, :] - x) ** 2 <= radius_m**2
         for r in rotations:

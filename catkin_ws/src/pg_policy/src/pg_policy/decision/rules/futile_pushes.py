@@ -6,7 +6,9 @@ with it the argmax of Q_p, where it was: the learned policy then pushed at the s
 times in a row, typically at the workspace edge where the push end is clipped (docs/RESULTS.md). Suppressing that push
 direction within `radius_m` of where it started makes the next push try something else. Unlike a grasp, a push is not
 symmetric: only its own rotation index is suppressed. As a test-time rule (pg_policy.decision.rules.rule) it is
-"futile_pushes[:RADIUS_M]".
+"futile_pushes[:RADIUS_M]". The episode protocol keeps a memory of its own that binds every policy
+(pg_policy.perception.target_memory: a push that changed nothing anywhere along its path is refused when repeated,
+and the learned policy suppresses it in Q_p); this rule adds the stricter "nothing changed around the target".
 """
 
 from __future__ import annotations
@@ -21,9 +23,10 @@ from pg_policy.decision.option import PolicyOption
 from pg_policy.decision.rules.failed_grasps import parse_radius, suppress_near
 from pg_policy.decision.rules.rule import Rule, RuleContext
 from pg_policy.perception.scene_change import PUSH_CHANGE_RADIUS_M, scene_changed
+from pg_policy.perception.target_memory import FUTILE_PUSH_RADIUS_M
 
 DEFAULT_RADIUS_M = 0.0  # off unless the rule list names it: not in the shipped model's list
-RADIUS_M = 0.01  # the radius to use when on: 1 cm (5 cells at 0.002 m)
+RADIUS_M = FUTILE_PUSH_RADIUS_M  # the radius to use when on: 1 cm (5 cells at 0.002 m), the episode memory's
 
 
 class FutilePushes(Rule):

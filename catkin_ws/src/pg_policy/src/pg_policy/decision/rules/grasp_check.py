@@ -25,9 +25,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pg_core.action_geometry import grasp_z
+from pg_core.action_geometry import grasp_z_at
 from pg_core.geometry import Geometry
-from pg_core.heightmap import Heightmap, pixel_to_world
+from pg_core.heightmap import TOP_K, Heightmap, pixel_to_world, rotation_yaw
 from pg_policy.decision.jaw_fit import JawFit
 from pg_policy.decision.option import PolicyOption
 from pg_policy.decision.rules.rule import BatchTest, CandidateTest, Rule, RuleContext
@@ -46,7 +46,6 @@ VARIANTS = {
 }
 NAMES = ("none", *VARIANTS)  # what the grasp_check option (`pushgrasp eval --grasp-check`) accepts
 DEFAULT_VARIANT = "jaw-walls"  # the rule's variant when its entry names none
-TOP_K = 200  # candidate cells examined per decision
 CENTRE_TOL_M = 0.01  # the learned cell may sit this far from the pad-centred line along the closing axis
 WALL_WINDOW_M = 0.002  # the ends of the target's extent between the pads searched for its wall height (one cell)
 WALL_TOL_M = 0.002  # the wall must stand this far above the fingertips
@@ -96,9 +95,9 @@ class JawGraspCheck(Rule):
         cells, others = cells_others or self.jaw.around(hm, target)
         t = target[cells.slice].reshape(-1)
         o = others[cells.slice].reshape(-1)
-        yaw = rotation * 2 * math.pi / self.jaw.rotations
+        yaw = rotation_yaw(rotation, self.jaw.rotations)
         centre = np.array(pixel_to_world(row, col, hm.bounds, hm.resolution))
-        zg = grasp_z(hm.height, row, col, self.prims)
+        zg = grasp_z_at(hm, row, col, self.prims, yaw=yaw)  # the z action_pose executes
         fit = self.jaw.grasp_fit(cells.xy[t], cells.xy[o], cells.h[o], centre, yaw, zg)
         if fit is None or fit[0] < 0:
             return False
@@ -134,11 +133,12 @@ class JawGraspCheck(Rule):
         o = others[cells.slice].reshape(-1)
         t_xy, t_h, o_xy, o_h = cells.xy[t], cells.h[t], cells.xy[o], cells.h[o]
         rotations, rows, cols = (np.asarray(a, dtype=np.int64).reshape(-1) for a in (rotations, rows, cols))
-        yaws = rotations * 2 * math.pi / self.jaw.rotations
+        yaws = rotation_yaw(rotations, self.jaw.rotations)
         cells_rc = list(zip(rows.tolist(), cols.tolist(), strict=True))
         centres = np.array([pixel_to_world(r, c, hm.bounds, hm.resolution) for r, c in cells_rc],
                            dtype=np.float64).reshape(-1, 2)
-        zg = np.array([grasp_z(hm.height, r, c, self.prims) for r, c in cells_rc], dtype=np.float64)
+        zg = np.array([grasp_z_at(hm, r, c, self.prims, yaw=float(yw))
+                       for (r, c), yw in zip(cells_rc, yaws, strict=True)], dtype=np.float64)
         clear, c2, _ = self.jaw.grasp_fit_many(t_xy, o_xy, o_h, centres, yaws, zg)
         ok = clear >= 0 if clearance else ~np.isnan(clear)  # NaN: the target does not fit between the pads
         u = np.stack([np.cos(yaws), np.sin(yaws)], axis=1)

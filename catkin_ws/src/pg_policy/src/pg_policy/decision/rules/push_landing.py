@@ -21,12 +21,12 @@ import numpy as np
 
 from pg_core.action_geometry import push_z
 from pg_core.geometry import Geometry
+from pg_core.heightmap import TOP_K, rotation_yaw
 from pg_policy.decision.option import PolicyOption
 from pg_policy.decision.rules.rule import CandidateTest, Rule, RuleContext
 
 MAX_COVER = 0.25  # at most this fraction of the closed jaw's footprint may lie on something above the fingertips
 TOL_M = 0.002  # a cell counts as under the fingers when it stands this much above the fingertips
-TOP_K = 200  # push candidates examined per decision
 
 
 class LandingGuard(Rule):
@@ -51,7 +51,7 @@ class LandingGuard(Rule):
         xy = np.stack([dc.ravel(), dr.ravel()], axis=1) * res  # cell offsets in m: +col = +x, +row = +y
         self.footprints = []  # per rotation: (K, 2) int (row, col) offsets of the cells under the closed jaw
         for r in range(geometry.heightmap.rotations):
-            yaw = r * 2 * math.pi / geometry.heightmap.rotations
+            yaw = rotation_yaw(r, geometry.heightmap.rotations)
             u = np.array([math.cos(yaw), math.sin(yaw)])
             inside = (np.abs(xy @ u) <= half_u + 1e-9) & (np.abs(xy @ np.array([-u[1], u[0]])) <= half_v + 1e-9)
             self.footprints.append(np.stack([dr.ravel()[inside], dc.ravel()[inside]], axis=1))

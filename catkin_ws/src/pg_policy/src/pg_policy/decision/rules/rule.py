@@ -24,7 +24,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from pg_core.geometry import Geometry
-from pg_core.heightmap import Heightmap
+from pg_core.heightmap import TOP_K, Heightmap
 from pg_policy.decision.option import PolicyOption
 
 CandidateTest = Callable[[int, int, int], bool]  # (rotation, row, col) -> allowed
@@ -73,7 +73,7 @@ class Rule:
     veto_note: ClassVar[str] = ""  # the policy's last_note when this rule's veto makes it push
     option: ClassVar[PolicyOption | None] = None  # the user option that switches the rule (None: only rule lists)
     order: ClassVar[int] = 100  # where an option that switches the rule on inserts it into a model's rule list
-    top_k: int = 200  # candidates examined per decision by candidate_test
+    top_k: int = TOP_K  # candidates examined per decision by candidate_test (pg_core.heightmap.TOP_K)
 
     @classmethod
     def from_arg(cls, geometry: Geometry, arg: str | None) -> Rule:
