@@ -30,7 +30,7 @@ $(STAMP)/venv: $(STAMP)/apt requirements.txt pyproject.toml
 	@echo "[setup] python requirements into $(VENV)"
 	@$(PY) -m pip install -q --disable-pip-version-check -r requirements.txt 2>&1 | grep -v "is ignored: it is neither" || true
 	@$(PY) -m pip install -q --disable-pip-version-check --no-deps --no-build-isolation -e . 2>&1 | grep -v "is ignored: it is neither" || true
-	@$(PY) -c "import torch, pybullet, pg_policy, pg_sim" 2>/dev/null
+	@$(PY) -c "import torch, pybullet, pg_policy, pg_sim, pg_learning" 2>/dev/null
 	@touch $@
 
 $(STAMP)/build: $(STAMP)/venv $(CATKIN_INPUTS)

@@ -98,8 +98,8 @@ def test_first_protocol_trial_in_the_simulator(scene: str) -> None:
     the first; the recorded outcome is required when the whole trial is reproduced."""
     from functools import partial
 
-    from pg_policy.environment.sim_env import SimEnv
-    from pg_policy.evaluation.trials import EvalPlan, run_fresh
+    from pg_learning.environment.sim_env import SimEnv
+    from pg_learning.evaluation.runner import EvalPlan, run_fresh
     from pg_policy.policies.registry import make_policy
 
     recs = records()

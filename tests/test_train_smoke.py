@@ -41,8 +41,8 @@ def test_resume_continues_where_it_stopped(run_dir):
 
 def test_later_stage_refuses_without_previous(tmp_path):
     with pytest.raises(FileNotFoundError, match="train stage 'push' first"):
-        from pg_policy.training.config import TrainConfig
-        from pg_policy.training.trainer import Trainer
+        from pg_learning.training.config import TrainConfig
+        from pg_learning.training.trainer import Trainer
 
         Trainer(TrainConfig(stage="alternate", out=tmp_path, iterations=1))
 
@@ -73,9 +73,9 @@ def test_export_loads_without_project_source_and_matches_checkpoint(run_dir, tmp
 def test_a_stage_can_start_from_exported_models(run_dir, tmp_path):
     import torch
 
+    from pg_learning.training.config import TrainConfig
+    from pg_learning.training.trainer import Trainer
     from pg_policy.models.model_io import ModelLoadError
-    from pg_policy.training.config import TrainConfig
-    from pg_policy.training.trainer import Trainer
 
     model = tmp_path / "model"
     assert main(["export", "--run", str(run_dir), "--out", str(model)]) == 0
@@ -103,9 +103,9 @@ def test_goal_conditioned_episode_ends_when_the_target_is_not_visible(run_dir, t
     import numpy as np
 
     from pg_core.heightmap import Heightmap
-    from pg_policy.environment.sim_env import EnvObservation
-    from pg_policy.training.config import TrainConfig
-    from pg_policy.training.trainer import Trainer
+    from pg_learning.environment.sim_env import EnvObservation
+    from pg_learning.training.config import TrainConfig
+    from pg_learning.training.trainer import Trainer
 
     trainer = Trainer(TrainConfig(stage="grasp-goal", out=tmp_path, iterations=1,
                                   init=run_dir / "grasp-agnostic" / "last.pt", scene="random-4"))
@@ -121,8 +121,8 @@ def test_goal_conditioned_episode_ends_when_the_target_is_not_visible(run_dir, t
 
 
 def test_guided_exploration_takes_the_heuristics_actions(run_dir, tmp_path):
-    from pg_policy.training.config import TrainConfig
-    from pg_policy.training.trainer import Trainer
+    from pg_learning.training.config import TrainConfig
+    from pg_learning.training.trainer import Trainer
 
     cfg = TrainConfig(stage="push", out=tmp_path, iterations=2, init=run_dir / "grasp-goal" / "last.pt",
                       scene="dense-4", epsilon_start=1.0, epsilon_end=1.0, guided_exploration=1.0,
@@ -133,8 +133,8 @@ def test_guided_exploration_takes_the_heuristics_actions(run_dir, tmp_path):
 
 
 def test_guided_exploration_takes_the_heuristics_free_grasps(run_dir, tmp_path):
-    from pg_policy.training.config import TrainConfig
-    from pg_policy.training.trainer import Trainer
+    from pg_learning.training.config import TrainConfig
+    from pg_learning.training.trainer import Trainer
 
     cfg = TrainConfig(stage="grasp-goal", out=tmp_path, iterations=2, init=run_dir / "grasp-agnostic" / "last.pt",
                       scene="random-4", epsilon_start=1.0, epsilon_end=1.0, guided_exploration=1.0,
@@ -177,8 +177,8 @@ def test_alternate_push_budget_forces_grasps_and_is_exported(run_dir, tmp_path, 
 
 
 def test_a_scene_list_takes_its_families_in_turn(tmp_path):
-    from pg_policy.training.config import TrainConfig
-    from pg_policy.training.trainer import Trainer
+    from pg_learning.training.config import TrainConfig
+    from pg_learning.training.trainer import Trainer
 
     trainer = Trainer(TrainConfig(stage="grasp-agnostic", out=tmp_path, iterations=1, scene="dense-4, random-2"))
     try:

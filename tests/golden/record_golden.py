@@ -37,8 +37,8 @@ def set_threads(n: int) -> None:
 
 
 def main() -> None:
-    from pg_policy.environment.sim_env import SimEnv
-    from pg_policy.evaluation.trials import EvalPlan, run_fresh
+    from pg_learning.environment.sim_env import SimEnv
+    from pg_learning.evaluation.runner import EvalPlan, run_fresh
     from pg_policy.policies.registry import make_policy
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import threading
 import time
+from pathlib import Path
 
 import rospy
 
@@ -43,3 +44,34 @@ class Call(threading.Thread):
             self.result = self.proxy(**self.kwargs)
         except Exception as exc:  # noqa: BLE001 (reported by the test)
             self.error = exc
+
+
+def write_robot_bag(path: Path, seconds: float = 6.0) -> None:
+    """Camera + per-arm joint states of packed/case01, stamped with sim time, as the drivers would publish them
+    (robot.launch's inputs), written to the bag `path` from the ROS-free simulator core."""
+    import rosbag
+    from sensor_msgs.msg import JointState
+
+    from pg_sim.ros import ros_conversions as conv
+    from pg_sim.runtime.runtime_types import RuntimeConfig
+    from pg_sim.runtime.sim_runtime import SimRuntime
+
+    config = RuntimeConfig(scene="packed/case01", camera_rate=2.0, idle_real_time_factor=0.0)
+    with SimRuntime(config) as sim, rosbag.Bag(str(path), "w") as bag:
+        frame = sim.geometry.camera_frame
+        t_end = sim.sim_time + seconds
+        while sim.sim_time < t_end:
+            out = sim.step()
+            if out.joint_state is not None:
+                msg = conv.joint_state(out.joint_state)
+                for arm in ("left", "right"):
+                    part = JointState(header=msg.header)
+                    for i, name in enumerate(msg.name):
+                        if name.startswith(arm + "_"):
+                            part.name.append(name)
+                            part.position.append(msg.position[i])
+                            part.velocity.append(msg.velocity[i] if msg.velocity else 0.0)
+                    bag.write(f"/{arm}/joint_states", part, msg.header.stamp)
+            if out.camera is not None:
+                for topic, m in conv.camera_messages(out.camera, sim.geometry.camera, frame).items():
+                    bag.write(f"/camera/{topic}", m, m.header.stamp)

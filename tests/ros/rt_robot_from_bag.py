@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """robot.launch with the camera and arm topics from a rosbag instead of hardware (no simulator node): the bag is
-written here from the ROS-free simulator core (camera topics, one JointState topic per arm as two ur_robot_drivers
-publish them), played with --clock, and the real-robot bringup must give tf, /pg/heightmap, the controller service
-and a policy decision, exactly the interface the simulated cell gives."""
+written here from the ROS-free simulator core (pg_rostest.write_robot_bag: camera topics, one JointState topic per arm
+as two ur_robot_drivers publish them), played with --clock, and the real-robot bringup must give tf, /pg/heightmap,
+the controller service and a policy decision, exactly the interface the simulated cell gives."""
 
 from __future__ import annotations
 
@@ -17,42 +17,15 @@ import rostest
 import tf2_ros
 from pg_msgs.msg import Heightmap
 from pg_msgs.srv import Infer
-from pg_rostest import STACK_TIMEOUT_S, wait_service
+from pg_rostest import STACK_TIMEOUT_S, wait_service, write_robot_bag
 from sensor_msgs.msg import JointState
-
-
-def write_bag(path: Path, seconds: float = 6.0) -> None:
-    """Camera + per-arm joint states of packed/case01, stamped with sim time, as the drivers would publish them."""
-    from pg_sim.ros import ros_conversions as conv
-    from pg_sim.runtime.runtime_types import RuntimeConfig
-    from pg_sim.runtime.sim_runtime import SimRuntime
-
-    config = RuntimeConfig(scene="packed/case01", camera_rate=2.0, idle_real_time_factor=0.0)
-    with SimRuntime(config) as sim, rosbag.Bag(str(path), "w") as bag:
-        frame = sim.geometry.camera_frame
-        t_end = sim.sim_time + seconds
-        while sim.sim_time < t_end:
-            out = sim.step()
-            if out.joint_state is not None:
-                msg = conv.joint_state(out.joint_state)
-                for arm in ("left", "right"):
-                    part = JointState(header=msg.header)
-                    for i, name in enumerate(msg.name):
-                        if name.startswith(arm + "_"):
-                            part.name.append(name)
-                            part.position.append(msg.position[i])
-                            part.velocity.append(msg.velocity[i] if msg.velocity else 0.0)
-                    bag.write(f"/{arm}/joint_states", part, msg.header.stamp)
-            if out.camera is not None:
-                for topic, m in conv.camera_messages(out.camera, sim.geometry.camera, frame).items():
-                    bag.write(f"/camera/{topic}", m, m.header.stamp)
 
 
 class RobotFromBag(unittest.TestCase):
     def test_robot_bringup_runs_on_recorded_topics(self) -> None:
         rospy.init_node("rt_robot_from_bag")
         bag = Path(tempfile.mkdtemp()) / "robot_inputs.bag"
-        write_bag(bag)
+        write_robot_bag(bag)
         with rosbag.Bag(str(bag)) as b:
             topics = set(b.get_type_and_topic_info().topics)
         self.assertIn("/camera/depth/color/points", topics)

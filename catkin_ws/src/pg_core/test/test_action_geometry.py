@@ -102,7 +102,7 @@ def _scene(n: int = 140) -> tuple[np.ndarray, np.ndarray]:
     return np.zeros((n, n)), np.tile(np.array(TABLE, np.uint8), (n, n, 1))
 
 
-def _bowl(height, color, rc, cc, radius=0.055, rim=0.04, floor=0.009, floor_r=0.03, wall=0.004, shade=1.0):
+def _bowl(height, color, rc, cc, radius=0.055, rim=0.05, floor=0.009, floor_r=0.03, wall=0.004, shade=1.0):
     """A bowl seen from above: a flat floor, an inner wall rising to the rim, a rim `wall` m wide at `rim` m."""
     yy, xx = np.mgrid[:height.shape[0], :height.shape[1]]
     r = np.hypot(yy - rc, xx - cc) * RES
@@ -120,7 +120,7 @@ def _z(height, color, row, col, yaw, prims=PRIMS):
 
 def test_rim_keys_from_the_config():
     assert (PRIMS.grasp_rim_depth, PRIMS.grasp_rim_clearance, PRIMS.grasp_rim_step, PRIMS.grasp_rim_wall,
-            PRIMS.grasp_rim_reach) == (0.02, 0.005, 0.01, 0.012, 0.0425)
+            PRIMS.grasp_rim_reach) == (0.03, 0.005, 0.01, 0.012, 0.0425)
 
 
 @pytest.mark.parametrize("yaw", [0.0, math.pi, math.pi / 8, -math.pi / 8])
@@ -130,16 +130,16 @@ def test_a_bowl_floor_next_to_the_wall_grasps_below_the_rim_above_the_floor(yaw)
     old = grasp_z(height, row, col, PRIMS)
     assert old == pytest.approx(0.35 * 0.009)  # the cell alone: 3 mm up, the bowl's bottom
     z = _z(height, color, row, col, yaw)
-    assert z == pytest.approx(0.04 - PRIMS.grasp_rim_depth)  # 2 cm below the rim, 11 mm above the floor
-    assert 0.009 + PRIMS.grasp_rim_clearance <= z < 0.04
+    assert z == pytest.approx(0.05 - PRIMS.grasp_rim_depth)  # 3 cm below the rim, 11 mm above the floor
+    assert 0.009 + PRIMS.grasp_rim_clearance <= z < 0.05
     pit = rim_pit(height, row, col, yaw, RES, PRIMS, color=color)
-    assert pit is not None and pit.floor == pytest.approx(0.009) and pit.rim == pytest.approx(0.04)
+    assert pit is not None and pit.floor == pytest.approx(0.009) and pit.rim == pytest.approx(0.05)
 
 
 def test_a_shallow_pit_keeps_the_fingertips_above_the_floor():
     height, color = _bowl(*_scene(), 70, 70, rim=0.022, floor=0.008)  # a plate's well and rim
     z = _z(height, color, 70, 70 - 14, 0.0)
-    assert z == pytest.approx(0.008 + PRIMS.grasp_rim_clearance)  # rim - depth would be 2 mm: under the floor
+    assert z == pytest.approx(0.008 + PRIMS.grasp_rim_clearance)  # rim - depth would be under the floor
 
 
 def test_a_cup_between_two_walls_takes_the_lower_rim():
@@ -158,7 +158,7 @@ def test_the_wall_must_be_in_reach_and_across_the_jaw():
     height, color = _bowl(*_scene(), 70, 70, radius=0.1, floor_r=0.08)  # a wide bowl: flat floor 8 cm around
     assert _z(height, color, 70, 70, 0.0) == grasp_z(height, 70, 70, PRIMS)  # its centre: no wall within 42.5 mm
     row, col = 70, 70 - 35  # 70 mm from the axis: the rim 26-30 mm away along x, 100 mm along y
-    assert _z(height, color, row, col, 0.0) == pytest.approx(0.04 - PRIMS.grasp_rim_depth)
+    assert _z(height, color, row, col, 0.0) == pytest.approx(0.05 - PRIMS.grasp_rim_depth)
     assert _z(height, color, row, col, math.pi / 2) == grasp_z(height, row, col, PRIMS)
 
 
@@ -199,7 +199,7 @@ def test_another_object_in_the_bowl_keeps_its_own_height():
     height, color = _bowl(*_scene(), 70, 70)
     height[66:74, 40:60], color[66:74, 40:60] = 0.015, RED  # a red spoon handle lying on the floor by the wall
     assert _z(height, color, 70, 50, 0.0) == grasp_z(height, 70, 50, PRIMS) == pytest.approx(0.35 * 0.015)
-    assert _z(height, color, 70, 84, 0.0) == pytest.approx(0.04 - PRIMS.grasp_rim_depth)  # the floor across the bowl
+    assert _z(height, color, 70, 84, 0.0) == pytest.approx(0.05 - PRIMS.grasp_rim_depth)  # the floor across the bowl
     assert _z(height, color, 70, 62, 0.0) == grasp_z(height, 70, 62, PRIMS)  # its one wall is behind the spoon
 
 

@@ -1,4 +1,4 @@
-"""pg_policy.training.checkpoint: checkpoints load without running pickled code."""
+"""pg_policy.models.checkpoint: checkpoints load without running pickled code."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from pg_policy.training.checkpoint import load_checkpoint
+from pg_policy.models.checkpoint import load_checkpoint
 
 
 class _Payload:

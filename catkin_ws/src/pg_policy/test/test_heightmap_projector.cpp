@@ -1,5 +1,6 @@
 // gtest of the ROS-free heightmap projector core (include/pg_policy/heightmap_projector.h) on synthetic clouds and
-// depth images. The agreement with the numpy reference on a simulated scene is tested by heightmap_projector.test.
+// depth images. The agreement with the numpy reference on a simulated scene is tested by
+// tests/ros/heightmap_projector.test.
 #include <gtest/gtest.h>
 #include <pg_core/workspace_config.h>
 

@@ -1,4 +1,5 @@
-"""The policy registry, the random and heuristic baselines on synthetic heightmaps, and the heuristic in the sim."""
+"""The policy registry, the random and heuristic baselines and the learned policy on synthetic heightmaps (the heuristic
+in the simulator: pg_learning/test/test_sim_env.py)."""
 
 from __future__ import annotations
 
@@ -118,24 +119,6 @@ def test_heuristic_does_not_repeat_a_failed_grasp():
     assert first.primitive == "grasp"
     same_place = math.hypot(second.x - first.x, second.y - first.y) < pol.planner.p.repeat_radius
     assert not (second.primitive == "grasp" and second.rotation % 8 == first.rotation % 8 and same_place)
-
-
-def test_heuristic_grasps_an_isolated_target_in_the_sim():
-    from pg_policy.environment.sim_env import SimEnv
-    from pg_sim.scenes.colors import resolve_color
-    from pg_sim.scenes.scene import ObjectSpec, SceneSpec
-
-    objs = (ObjectSpec("cube", None, resolve_color("green"), (0.04, -0.03, 0.0226, 0, 0, 0.4), target=True,
-                       name="target"),
-            ObjectSpec("rect", None, resolve_color("blue"), (-0.1, 0.1, 0.0226, 0, 0, 1.0), name="other"))
-    with SimEnv() as env:
-        obs = env.reset(SceneSpec("isolated", "green", objs, "test"))
-        pol = make_policy("heuristic")
-        pol.reset(0)
-        d = pol.act(obs)
-        assert d.primitive == "grasp"
-        res = env.step(d.primitive, d.x, d.y, d.z, d.yaw)
-        assert res.target_grasped, res.message
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,14 @@ from rule_testing import context
 from pg_core.geometry import load
 from pg_core.heightmap import Heightmap
 from pg_policy.decision.rules.pipeline import RulePipeline
-from pg_policy.decision.rules.registry import legacy_rules, make_pipeline, model_rules, rule_classes, with_switch
+from pg_policy.decision.rules.registry import (
+    builtin_rule_classes,
+    legacy_rules,
+    make_pipeline,
+    model_rules,
+    rule_classes,
+    with_switch,
+)
 from pg_policy.decision.rules.rule import Rule, RuleContext
 from pg_policy.policies import options
 
@@ -74,8 +81,9 @@ def test_filters_shape_the_shown_map_and_memories_only_the_decision():
 
 
 def test_rules_are_found_by_module_and_named_once():
-    assert list(rule_classes()) == ["grasp_filter", "failed_grasps", "futile_pushes", "grasp_check", "push_landing",
-                                    "edge_guard"]
+    assert list(builtin_rule_classes()) == ["grasp_filter", "failed_grasps", "futile_pushes", "grasp_check",
+                                            "push_landing", "edge_guard"]
+    assert list(rule_classes())[:6] == list(builtin_rule_classes())  # installed plug-ins follow
     assert make_pipeline(SHIPPED, GEO).specs() == SHIPPED
     with pytest.raises(ValueError, match="unknown rule 'fancy'"):
         make_pipeline(["fancy"], GEO)
@@ -83,6 +91,32 @@ def test_rules_are_found_by_module_and_named_once():
         make_pipeline(["push_landing", "push_landing"], GEO)
     with pytest.raises(ValueError, match="takes no argument"):
         make_pipeline(["edge_guard:3"], GEO)
+
+
+class Shift(Rule):
+    """A rule of a given kind adding `by` to the whole map (to see where its adjust runs)."""
+
+    primitive = "grasp"
+
+    def __init__(self, name: str, kind: str, by: float) -> None:
+        self.name, self.kind, self.by = name, kind, by  # type: ignore[misc]
+
+    def adjust(self, q: np.ndarray, ctx: RuleContext) -> np.ndarray:
+        return q + self.by
+
+
+def test_the_kind_decides_where_a_rule_adjusts_and_apply_times_every_rule():
+    hm, anywhere = _flat()
+    q = np.zeros((16, H, W))
+    # listed memory first: the filter still runs first (its map is the shown one), the memory after it
+    pipe = RulePipeline([Shift("m", "memory", 1.0), Shift("f", "filter", 10.0), Forbid({(0, 0, 0)}, "c")])
+    res = pipe.apply({"grasp": q, "push": q}, context(hm, anywhere))
+    assert (res.shown["grasp"] == 10.0).all() and res.q["grasp"].max() == 11.0
+    assert list(pipe.timings) == ["m", "f", "c", "rerank"] and all(t >= 0.0 for t in pipe.timings.values())
+    assert pipe.timings["c"] > 0.0  # the push test, asked during the re-rank of Q_p, is charged to its rule
+    assert [Shift("x", k, 0.0).reach() for k in ("filter", "memory", "check")] == [None, 0, 0]
+    with pytest.raises(ValueError, match="unknown rule kind 'layer'"):
+        RulePipeline([Shift("x", "layer", 0.0)])
 
 
 def test_models_before_rule_lists_map_their_switches_to_the_same_rules():

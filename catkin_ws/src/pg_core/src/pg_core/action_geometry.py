@@ -4,7 +4,7 @@ Heights are TCP (fingertip centre) z in `world`, metres. Heightmap heights are m
 
 The grasp height (DESIGN.md section 4, the primitive's contract) comes from the cell's height (`grasp_z_for_height`:
 section 4's rule, the low-object rule below 2 cm) unless the cell lies in a pit of an object along the jaw's closing
-line (`rim_pit`: the floor of a bowl, a cup or a plate's well next to its wall); there the fingertips go below the
+line (`rim_pit`: the floor or inner wall of a bowl or a cup next to its wall); there the fingertips go below the
 wall's top and above the floor (`grasp_z` with the rotation's yaw).
 """
 
@@ -133,7 +133,7 @@ def grasp_z(height: np.ndarray, row: int, col: int, prims: PrimitiveSpec, zmin: 
 
     Without `yaw`: grasp_z_for_height of the pixel's height. With the grasp's `yaw` (rad; `resolution`, m per cell,
     needed then; `color`: the (H, W, 3) colour heightmap, optional): where the pixel lies in a pit along the jaw
-    line (`rim_pit`: a bowl's floor or inner wall next to its rim, inside a cup, a plate's well), z = max(rim -
+    line (`rim_pit`: a bowl's floor or inner wall next to its rim, the inside of a cup or a mug), z = max(rim -
     grasp_rim_depth, floor + grasp_rim_clearance): one finger inside the wall and one outside, the fingertips below
     the rim and above the floor; elsewhere grasp_z_for_height of the pixel's height.
     """

@@ -44,11 +44,11 @@ def _run(args: argparse.Namespace) -> int:
         for line in rep.disagreements[:20]:
             print(f"    {line}")
     if args.json:
-        from pg_policy.evaluation.trials import _plain
+        from pg_policy.target_loop.records import plain
 
         report = {"bag": str(args.bag), "decisions": rep.decisions, "agreement": rep.agreement,
                   "compared": rep.compared, "agreed": rep.agreed, "missing_heightmaps": rep.missing_heightmaps,
-                  "metrics": _plain(rep.metrics), "episodes": {k: _plain(v) for k, v in rep.episodes.items()},
+                  "metrics": plain(rep.metrics), "episodes": {k: plain(v) for k, v in rep.episodes.items()},
                   "disagreements": rep.disagreements}
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(report, indent=2))

@@ -50,9 +50,9 @@ def export_run(run: Path, out: Path, stage: str | None = None, overrides: dict[s
 
     from pg_core.geometry import load as load_geometry
     from pg_policy.decision.rules.registry import make_pipeline
+    from pg_policy.models.checkpoint import load_checkpoint
     from pg_policy.models.model_io import export_qnet
     from pg_policy.models.nets.qnet import QNetConfig, build_qnet
-    from pg_policy.training.checkpoint import load_checkpoint
 
     overrides = dict(overrides or {})
     # every option and rule argument is validated (and written in its canonical form) before anything is written

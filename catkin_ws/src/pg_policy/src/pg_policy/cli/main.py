@@ -1,7 +1,12 @@
 """`pushgrasp`: one CLI for scenes, training, evaluation and benchmarks.
 
-Command groups register in COMMANDS (name -> "module:function" adding a subparser); modules load lazily so
-`pushgrasp --help` stays fast and never imports torch or pybullet.
+Subcommands register in COMMANDS: name -> the package that provides it and "module:function" adding its subparser.
+pg_policy's own need no simulator (export, replay, policies); the learning package pg_learning provides those that
+train, evaluate or render in the simulator (train, infer, eval, bench, compare, kinds, offline), and the simulator
+pg_sim `scene`. Modules load lazily, when the parser is built, so that `pushgrasp --help` stays fast and never imports
+torch or pybullet, and pg_policy itself never imports pg_learning or pg_sim (the import contracts of pyproject.toml):
+they are named here as strings only. On an install without them (a robot cell: pg_policy alone), their subcommands
+stay listed, marked as not installed, and running one says which package it needs and exits with status 2.
 """
 
 from __future__ import annotations
@@ -9,19 +14,57 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from collections.abc import Callable
+from dataclasses import dataclass
 
-COMMANDS: dict[str, str] = {
-    "scene": "pg_sim.cli.scene:add_parser",
-    "train": "pg_policy.cli.train:add_parser",
-    "export": "pg_policy.cli.export:add_parser",
-    "infer": "pg_policy.cli.infer:add_parser",
-    "eval": "pg_policy.cli.eval:add_parser",
-    "bench": "pg_policy.cli.bench:add_parser",
-    "replay": "pg_policy.cli.bag_replay:add_parser",
-    "compare": "pg_policy.cli.compare:add_parser",
-    "offline": "pg_policy.cli.offline:add_parser",
-    "policies": "pg_policy.cli.policies:add_parser",
+LEARNING = "the learning package pg_learning (simulation: pg_sim, PyBullet)"
+SIMULATOR = "the simulator package pg_sim (PyBullet)"
+# top-level modules whose absence makes another package's subcommand unavailable (not a bug of that package)
+OPTIONAL_MODULES = ("pg_learning", "pg_sim", "pybullet", "pybullet_data")
+
+
+@dataclass(frozen=True)
+class Command:
+    """A subcommand: the catkin package providing it, "module:function" adding its subparser, and what to install
+    (in words) where that package is absent."""
+
+    package: str
+    target: str
+    needs: str = ""
+
+
+COMMANDS: dict[str, Command] = {
+    "scene": Command("pg_sim", "pg_sim.cli.scene:add_parser", SIMULATOR),
+    "train": Command("pg_learning", "pg_learning.cli.train:add_parser", LEARNING),
+    "export": Command("pg_policy", "pg_policy.cli.export:add_parser"),
+    "infer": Command("pg_learning", "pg_learning.cli.infer:add_parser", LEARNING),
+    "eval": Command("pg_learning", "pg_learning.cli.eval:add_parser", LEARNING),
+    "bench": Command("pg_learning", "pg_learning.cli.bench:add_parser", LEARNING),
+    "replay": Command("pg_policy", "pg_policy.cli.bag_replay:add_parser"),
+    "compare": Command("pg_learning", "pg_learning.cli.compare:add_parser", LEARNING),
+    "kinds": Command("pg_learning", "pg_learning.cli.kinds:add_parser", LEARNING),
+    "offline": Command("pg_learning", "pg_learning.cli.offline:add_parser", LEARNING),
+    "policies": Command("pg_policy", "pg_policy.cli.policies:add_parser"),
 }
+
+
+def load_command(cmd: Command) -> tuple[Callable[[argparse._SubParsersAction], None] | None, str | None]:
+    """(the function adding the subparser, None), or (None, the missing module) when `cmd` is another package's and
+    that package or the simulator is not installed. Any other import error propagates."""
+    module, func = cmd.target.split(":")
+    try:
+        return getattr(importlib.import_module(module), func), None
+    except ModuleNotFoundError as exc:
+        missing = (exc.name or "").split(".")[0]
+        if cmd.package == "pg_policy" or missing not in OPTIONAL_MODULES:
+            raise
+        return None, missing
+
+
+def unavailable(name: str, cmd: Command, missing: str) -> str:
+    """The error line of a subcommand whose package is not installed."""
+    return (f"pushgrasp {name}: error: this subcommand needs {cmd.needs}, which is not installed here "
+            f"(no module {missing!r}); this install has the runtime (pg_policy) only")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -30,15 +73,25 @@ def build_parser() -> argparse.ArgumentParser:
         description="Goal-conditioned push/grasp for a dual-arm UR5e: scenes, training, evaluation, benchmarks.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for target in COMMANDS.values():
-        module, func = target.split(":")
-        getattr(importlib.import_module(module), func)(sub)
+    for name, cmd in COMMANDS.items():
+        add, missing = load_command(cmd)
+        if add is not None:
+            add(sub)
+            continue
+        # listed all the same; any arguments are accepted, so that the answer is always the missing package
+        p = sub.add_parser(name, add_help=False, help=f"(not installed: needs {cmd.package})")
+        p.set_defaults(run=None, unavailable=unavailable(name, cmd, str(missing)))
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if getattr(args, "unavailable", None):
+        print(args.unavailable, file=sys.stderr)
+        return 2
+    if extra:  # what parse_args does
+        parser.error(f"unrecognized arguments: {' '.join(extra)}")
     try:
         return int(args.run(args) or 0)
     except (ValueError, FileNotFoundError, KeyError, ConnectionError, TimeoutError) as exc:

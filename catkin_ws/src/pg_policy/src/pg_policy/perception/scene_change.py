@@ -1,5 +1,5 @@
 """Did an action change the scene around the target? The heightmap comparison behind the push reward
-(pg_policy.training.rewards) and the futile-push memory rule (pg_policy.decision.rules.futile_pushes).
+(pg_learning.training.rewards) and the futile-push memory rule (pg_policy.decision.rules.futile_pushes).
 
 Following the authors' code (Xu et al. 2021): "changed" counts the cells around the target (convex hull of the
 target mask before the action, grown by 0.01 m) whose height fell by at least 0.01 m (changes above 0.3 m are

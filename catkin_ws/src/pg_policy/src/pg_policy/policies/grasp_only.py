@@ -25,7 +25,7 @@ class GraspOnlyPolicy(PolicyBase):
         self.model_paths: tuple[Path, ...] = (grasp,)
         self.nets = load_nets(grasp, None, opts.device)
         rules = make_pipeline(resolved_rules(model_rules(self.nets.metadata["grasp"]), opts.overrides), self.geometry)
-        self.filters = [r for r in rules.rules if r.primitive == "grasp" and r.kind == "filter"]
+        self.filters = [r for r in rules.rules if r.primitive == "grasp" and r.rule_kind().shown]
 
     def act(self, obs: Any) -> Decision:
         hm = obs.heightmap

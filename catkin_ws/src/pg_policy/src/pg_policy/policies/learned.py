@@ -15,13 +15,18 @@ Per decision (the paper's loop at test time):
    the budget forces while no candidate passes the grasp rules goes to the best cell passing their weaker fallback
    tests (option forced_grasp, on by default; RulePipeline.forced_grasp), else to Q_g's argmax.
 The threshold and budget come from the grasp model's metadata (thresholds.grasp_q, push_budget), the rule list from
-its `rules` (or the switches of older models); PolicyOptions overrides any of them (pg_policy.policies.options).
+its `rules` (or the switches of older models); PolicyOptions overrides any of them (pg_policy.policies.options). The
+policy reads them once into a LearnedConfig. What the policy must do whatever Q_g says (a spent push budget, a veto,
+a hidden target) is a Force, which `decision_threshold` turns into the threshold decide() compares with.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from enum import Enum
 from typing import Any
 
 import numpy as np
@@ -33,7 +38,7 @@ from pg_policy.decision.rules.registry import make_pipeline, model_rules
 from pg_policy.decision.rules.rule import RuleContext
 from pg_policy.models.inference import target_window
 from pg_policy.policies.model_files import load_nets, metadata_thresholds, resolve_models, threshold_from_metadata
-from pg_policy.policies.options import HIDDEN_PUSHES, resolved_rules
+from pg_policy.policies.options import HIDDEN_PUSHES, option, resolved_rules
 from pg_policy.policies.policy import PolicyBase, PolicyOptions, goal_of
 
 # Cells of Q computed beyond a region: each rule's `reach` (the grasp filter's k x k squares read (k - 1) / 2 cells
@@ -42,8 +47,83 @@ from pg_policy.policies.policy import PolicyBase, PolicyOptions, goal_of
 WINDOW_MARGIN_CELLS = 4
 
 
+class Force(Enum):
+    """What a decision must be whatever Q_g says against the threshold. NONE: the threshold decides; GRASP: grasp
+    at Q_g's best cell of the grasp region (a push only when that region holds no finite Q_g: nothing to grasp);
+    PUSH: push."""
+
+    NONE = "none"
+    GRASP = "grasp"
+    PUSH = "push"
+
+
+def decision_threshold(force: Force, threshold: float) -> float:
+    """The grasp threshold that makes pg_policy.decision.decision.decide (grasp when the masked max of Q_g exceeds
+    it) do what `force` asks: -inf for GRASP, +inf for PUSH, `threshold` for NONE. decide takes a threshold only;
+    this is the one place a Force becomes one."""
+    return {Force.NONE: threshold, Force.GRASP: -math.inf, Force.PUSH: math.inf}[force]
+
+
+@dataclass(frozen=True)
+class LearnedConfig:
+    """The learned policy's decision settings, each the value of the policy option of the same name
+    (pg_policy.policies.options), else the model's own, else the policy's default. threshold: grasp when the masked
+    max of Q_g exceeds it (option grasp_threshold; metadata thresholds.grasp_q); push_budget: grasp after this many
+    pushes in a row, 0: no budget (thresholds.push_budget, default 0); rules: the rule list, "name" or "name:arg"
+    entries (the model's `rules` edited by the rule options); q_window: Q only around the regions (default on);
+    forced_grasp: a grasp the budget forces goes to the grasp rules' fallback tests (default on); min_target_cells:
+    the target is visible from this many cells (default pg_core.target_mask.MIN_VISIBLE_CELLS); hidden_pushes:
+    pushes in a row while the target is hidden before a grasp, 0: off (default HIDDEN_PUSHES). ValueError naming
+    the option for a value out of range."""
+
+    threshold: float
+    push_budget: int = 0
+    rules: tuple[str, ...] = ()
+    q_window: bool = True
+    forced_grasp: bool = True
+    min_target_cells: int = MIN_VISIBLE_CELLS
+    hidden_pushes: int = HIDDEN_PUSHES
+
+    def __post_init__(self) -> None:
+        if math.isnan(self.threshold):
+            raise ValueError("option grasp_threshold: the grasp threshold must be a number, got nan")
+        if self.push_budget < 0:
+            raise ValueError(f"option push_budget: the push budget must be >= 0 (0 = none), got {self.push_budget}")
+        if self.min_target_cells < 1:
+            raise ValueError(f"option min_target_cells: min_target_cells must be >= 1, got {self.min_target_cells}")
+        if self.hidden_pushes < 0:
+            raise ValueError(f"option hidden_pushes: hidden_pushes must be >= 0 (0 = off), got {self.hidden_pushes}")
+
+    @classmethod
+    def from_model(cls, metadata: Mapping[str, Any], overrides: Mapping[str, Any]) -> LearnedConfig:
+        """The settings of a grasp model's `metadata` under the option values `overrides` (PolicyOptions.overrides,
+        by option name; None or absent: unset). ValueError naming the option for a bad value, an undeclared option,
+        or a model without a threshold when none is given."""
+        value = {name: option(name).parse(overrides.get(name)) for name in (
+            "grasp_threshold", "push_budget", "q_window", "forced_grasp", "min_target_cells", "hidden_pushes")}
+        threshold = value["grasp_threshold"]
+        budget = value["push_budget"]
+        if budget is None:
+            stored = metadata_thresholds(metadata).get("push_budget", 0)
+            try:
+                budget = int(stored)
+            except (TypeError, ValueError):
+                raise ValueError(f"option push_budget: the model's thresholds.push_budget must be an integer, got "
+                                 f"{stored!r}") from None
+        return cls(
+            threshold=float(threshold) if threshold is not None else threshold_from_metadata(metadata),
+            push_budget=budget,
+            rules=tuple(resolved_rules(model_rules(metadata), overrides)),
+            q_window=value["q_window"] is not False,  # unset: on
+            forced_grasp=value["forced_grasp"] is not False,  # unset: on
+            min_target_cells=MIN_VISIBLE_CELLS if value["min_target_cells"] is None else value["min_target_cells"],
+            hidden_pushes=HIDDEN_PUSHES if value["hidden_pushes"] is None else value["hidden_pushes"],
+        )
+
+
 class LearnedPolicy(PolicyBase):
-    """Grasp and push nets + rule pipeline + decision rule (module docstring). `rules` is the pipeline in use."""
+    """Grasp and push nets + rule pipeline + decision rule (module docstring). `config` holds the settings (a
+    LearnedConfig), `rules` is the pipeline of its rule list."""
 
     name = "learned"
 
@@ -52,35 +132,31 @@ class LearnedPolicy(PolicyBase):
         grasp, push = resolve_models(opts.models, need_push=True)
         self.model_paths = (grasp, push)
         self.nets = load_nets(grasp, push, opts.device)
-        meta = self.nets.metadata["grasp"]
-        threshold = opts.get("grasp_threshold")
-        self.threshold = float(threshold) if threshold is not None else threshold_from_metadata(meta)
-        budget = opts.get("push_budget")
-        budget = metadata_thresholds(meta).get("push_budget", 0) if budget is None else budget
-        if int(budget) < 0:
-            raise ValueError(f"push budget must be >= 0 (0 = none), got {budget}")
-        self.push_budget = int(budget)
-        self.rules = make_pipeline(resolved_rules(model_rules(meta), opts.overrides), self.geometry)
-        self.q_window = opts.get("q_window") is not False  # unset: on
-        self.forced_fallback = opts.get("forced_grasp") is not False  # unset: on
-        min_cells = opts.get("min_target_cells")
-        self.min_target_cells = MIN_VISIBLE_CELLS if min_cells is None else int(min_cells)
-        if self.min_target_cells < 1:
-            raise ValueError(f"min_target_cells must be >= 1, got {self.min_target_cells}")
-        hidden = opts.get("hidden_pushes")
-        self.hidden_pushes = HIDDEN_PUSHES if hidden is None else int(hidden)
-        if self.hidden_pushes < 0:
-            raise ValueError(f"hidden_pushes must be >= 0 (0 = off), got {self.hidden_pushes}")
+        self.config = LearnedConfig.from_model(self.nets.metadata["grasp"], opts.overrides)
+        self.rules = make_pipeline(self.config.rules, self.geometry)
         self.pushes_in_row = 0
         self.last: Decision | None = None
         self.last_note = ""
         self.last_timings: dict[str, float] = {}  # seconds per stage of the last act(): perceive, nets, rule:*, decide
 
+    @property
+    def threshold(self) -> float:
+        """The grasp threshold (the Policy attribute the evaluation, infer and the policy node show)."""
+        return self.config.threshold
+
+    @property
+    def push_budget(self) -> int:
+        return self.config.push_budget
+
+    @property
+    def hidden_pushes(self) -> int:
+        return self.config.hidden_pushes
+
     def _q_maps(self, hm: Any, target: np.ndarray, ctx: RuleContext) -> dict[str, np.ndarray]:
         """{"grasp", "push"}: (R, H, W) float32 maps, full or (q_window) exact on each region's bounding box (grown by
         the reach of that primitive's rules, WINDOW_MARGIN_CELLS where a filter's reach is unknown) and -inf
         elsewhere (an empty region: all -inf)."""
-        if not self.q_window:
+        if not self.config.q_window:
             return self.nets.q_maps(hm, target)
         shape = (self.nets.num_rotations, *target.shape)
         windows = {}
@@ -108,7 +184,7 @@ class LearnedPolicy(PolicyBase):
     def act(self, obs: Any) -> Decision:
         t0 = time.perf_counter()
         hm = obs.heightmap
-        goal = goal_of(obs, self.min_target_cells)
+        goal = goal_of(obs, self.config.min_target_cells)
         target, visible = goal.mask, goal.visible
         ctx = RuleContext(hm, target, visible, *regions(target, hm))
         self.rules.observe(self.last, ctx)
@@ -119,18 +195,18 @@ class LearnedPolicy(PolicyBase):
         outcome = self.rules.apply(q, ctx)
         t3 = time.perf_counter()
         self._q = outcome.shown
-        spent = 0 < self.push_budget <= self.pushes_in_row
-        threshold, self.last_note = (-math.inf if spent else self.threshold), ""
+        spent = 0 < self.config.push_budget <= self.pushes_in_row
+        force, self.last_note = (Force.GRASP if spent else Force.NONE), ""
         if outcome.push_instead and not spent:
-            threshold, self.last_note = math.inf, outcome.note
-        if not visible and self.pushes_in_row < self.hidden_pushes:
-            threshold = math.inf
+            force, self.last_note = Force.PUSH, outcome.note
+        if not visible and self.pushes_in_row < self.config.hidden_pushes:
+            force = Force.PUSH
         q_grasp = outcome.q["grasp"]
-        if spent and self.forced_fallback and outcome.vetoed["grasp"]:
+        if spent and self.config.forced_grasp and outcome.vetoed["grasp"]:
             q_grasp, level = self.rules.forced_grasp(q_grasp, ctx)
             if level is not None:
                 self.last_note = f"push budget spent: grasp passing fallback test {level + 1} of the grasp rules"
-        d = decide(q_grasp, outcome.q["push"], target, hm, self.prims, threshold,
+        d = decide(q_grasp, outcome.q["push"], target, hm, self.prims, decision_threshold(force, self.threshold),
                    push_mask=ctx.push_region, grasp_mask=ctx.grasp_region)  # the regions the rules saw
         if not visible:  # e.g. "target hidden: searching where last seen (x, y): push"
             self.last_note = f"{goal.note}: {d.primitive}" + (f" ({self.last_note})" if self.last_note else "")

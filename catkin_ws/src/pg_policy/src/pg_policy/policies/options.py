@@ -1,8 +1,9 @@
 """The policies' options, declared once: the CLI flags, the policy node's private parameters and the launch
 arguments all come from OPTIONS.
 
-The general options are declared here; every test-time rule with a user switch declares its own
-(pg_policy.decision.rules.rule.Rule.option), so a new rule brings its option with it. An unset option (None, or
+The general options are declared here; every built-in test-time rule with a user switch declares its own
+(pg_policy.decision.rules.rule.Rule.option), so a new rule brings its option with it (a plug-in rule has none: the
+rule list, `rules`, switches it). An unset option (None, or
 "auto" from ROS) leaves the model's own value. Rule switches edit the model's rule list: a value turns the rule on
 (with that argument) or replaces its argument in place, the option's `off` value removes it; `rules` replaces the
 whole list first.
@@ -18,7 +19,7 @@ from xml.sax.saxutils import quoteattr
 
 from pg_core.target_mask import MIN_VISIBLE_CELLS
 from pg_policy.decision.option import AUTO, PolicyOption
-from pg_policy.decision.rules.registry import parse_spec, rule_classes, with_switch
+from pg_policy.decision.rules.registry import builtin_rule_classes, parse_spec, with_switch
 
 # Pushes in a row while the target is hidden before a goal-agnostic grasp (option hidden_pushes): every neighbour a
 # grasp lifts is a failed grasp (DESIGN.md section 8), pushes are not. Chosen on training seeds (docs/RESULTS.md).
@@ -51,8 +52,9 @@ MODEL_OWN = "the model's own"
 
 
 def options() -> tuple[PolicyOption, ...]:
-    """Every declared option: GENERAL, then each rule's switch in rule order."""
-    return GENERAL + tuple(cls.option for cls in rule_classes().values() if cls.option is not None)
+    """Every declared option: GENERAL, then each built-in rule's switch in rule order (plug-in rules have none:
+    rule lists switch them)."""
+    return GENERAL + tuple(cls.option for cls in builtin_rule_classes().values() if cls.option is not None)
 
 
 def option(name: str) -> PolicyOption:

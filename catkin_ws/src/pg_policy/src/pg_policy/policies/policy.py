@@ -1,6 +1,6 @@
 """What every policy is: the Policy protocol, the options policies are made with, and their shared base.
 
-A policy maps an observation (pg_policy.environment.sim_env.EnvObservation, or anything with `.heightmap`, a
+A policy maps an observation (pg_learning.environment.sim_env.EnvObservation, or anything with `.heightmap`, a
 pg_core.heightmap.Heightmap, and `.target`, the target's palette colour name) to a
 pg_policy.decision.decision.Decision. It finds the target itself, from the colour heightmap with pg_core.target_mask
 (never from the simulator's ground truth). `reset(seed)` starts a new trial (seeding the policy's own randomness);

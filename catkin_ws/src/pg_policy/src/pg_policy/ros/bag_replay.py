@@ -16,8 +16,9 @@ from pathlib import Path
 from typing import Any
 
 from pg_conversions.heightmap_msg import heightmap_from_msg
-from pg_policy.evaluation.trials import Stat, TrialRecord, scene_metrics
 from pg_policy.ros.convert import primitive_name
+from pg_policy.target_loop.metrics import Stat, scene_metrics
+from pg_policy.target_loop.records import TrialRecord
 from pg_policy.target_loop.target_loop import PolicyObservation
 
 DECISIONS = "/pg/decisions"

@@ -1,5 +1,5 @@
 """The one episode protocol (DESIGN.md section 8) shared by the ROS call (pg_policy.target_loop.target_loop), the
-evaluation trial (pg_policy.evaluation.trials.run_trial) and the training episode (pg_policy.training.collector):
+evaluation trial (pg_learning.evaluation.runner.run_trial) and the training episode (pg_learning.training.collector):
 the limits, the counting of actions, the termination reasons, the target memory and the seed convention.
 
 An episode is told each observation (`observe`: the heightmap, the target mask, and in simulation whether the

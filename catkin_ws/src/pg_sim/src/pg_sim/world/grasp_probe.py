@@ -264,7 +264,7 @@ def run(categories: Sequence[str], objects: int = 4, first: int = 0, rules: Sequ
         angles: int = 4, seed: int = 0, mode: str = DEFAULT_SIM_MODE, geometry: Geometry | None = None,
         log: Callable[[str], None] | None = None) -> list[Trial]:
     """Probe `objects` objects of each category (ids from `first`) with every rule; the object yaws come from
-    `seed`."""
+    `seed`, the category and the object's index (a subset of categories probes the same scenes)."""
     unknown = [c for c in categories if c not in CATEGORIES]
     if unknown:
         raise ValueError(f"unknown probe categories {unknown}; known: {', '.join(CATEGORIES)}")
@@ -273,14 +273,14 @@ def run(categories: Sequence[str], objects: int = 4, first: int = 0, rules: Sequ
         raise ValueError(f"unknown grasp-height rules {unknown}; known: {', '.join(RULES)}")
     from pg_sim.world.world import World
 
-    rng = np.random.default_rng(seed)
     trials: list[Trial] = []
     with World(geometry=geometry, mode=mode) as world:
-        k = 0
-        for category in categories:
-            for object_id in object_ids(category, objects, first):
-                colour = COLORS[COLOUR_NAMES[k % len(COLOUR_NAMES)]]
-                k += 1
+        for c, category in enumerate(CATEGORIES):
+            if category not in categories:
+                continue
+            for k, object_id in enumerate(object_ids(category, objects, first)):
+                colour = COLORS[COLOUR_NAMES[(c + k) % len(COLOUR_NAMES)]]
+                rng = np.random.default_rng([seed, c, first + k])  # the same scene whatever else is probed
                 trials += probe_object(world, category, object_id, colour, rules, angles, rng, log)
     return trials
 

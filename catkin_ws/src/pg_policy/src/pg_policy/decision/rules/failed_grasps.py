@@ -1,7 +1,7 @@
 """Within-trial memory of grasps that failed, so a deterministic greedy policy does not repeat one.
 
 A trial's policy is asked to act again only if its previous grasp did not end the trial, i.e. did not grasp the
-target (pg_policy.evaluation.trials and pg_policy.target_loop.target_loop reset the policy per trial). After a failed
+target (pg_learning.evaluation.runner and pg_policy.target_loop.target_loop reset the policy per trial). After a failed
 grasp the scene
 around it has barely changed, so the argmax of Q_g lands on (nearly) the same cell and rotation again: the
 learned policy burned up to 5 attempts that way (docs/RESULTS.md). Suppressing the cells within `radius_m` of a

@@ -1,7 +1,8 @@
 """The ordered chain of test-time rules between the learned nets' Q maps and the decision.
 
 For each Q map (grasp, then push) the pipeline applies, in the configured order, the `adjust` of every rule on that
-map, then re-ranks the map once by the conjunction of the rules' candidate tests (pg_policy.decision.rerank): the
+map whose kind shapes the map users see (filters), then the others' (pg_policy.decision.rules.rule.RULE_KINDS), then
+re-ranks the map once by the conjunction of the rules' candidate tests (pg_policy.decision.rerank): the
 best-valued candidate inside the primitive's region that passes every test takes the map's best value, so the
 grasp-or-push decision (masked max vs the threshold) is unchanged by the tests; when none of the best `top_k`
 passes, the map is left as it was and a vetoing grasp rule asks the policy to push instead. When the policy must
@@ -11,7 +12,8 @@ grasp all the same (its push budget is spent), `forced_grasp` re-ranks Q_g by th
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,6 +23,7 @@ from pg_policy.decision.rerank import rerank
 from pg_policy.decision.rules.rule import BatchTest, CandidateTest, Rule, RuleContext
 
 FORCED_TOP_K = 1000  # candidates examined per fallback level of a forced grasp
+MAPS = ("grasp", "push")  # the Q maps, in the order the pipeline runs them
 
 
 @dataclass(frozen=True)
@@ -36,6 +39,18 @@ class RuleOutcome:
     note: str
     rejected: dict[str, int]
     vetoed: dict[str, bool]
+
+
+@dataclass(frozen=True)
+class MapOutcome:
+    """One map after its rules (RulePipeline.apply): q, shown, rejected and vetoed as in RuleOutcome; vetoers: the
+    map's rules with a candidate test that ask for a push when it passes no candidate (Rule.vetoes_grasp)."""
+
+    q: np.ndarray
+    shown: np.ndarray
+    rejected: int
+    vetoed: bool
+    vetoers: list[Rule]
 
 
 def conjunction(tests: Sequence[CandidateTest]) -> CandidateTest:
@@ -63,6 +78,8 @@ class RulePipeline:
         names = [r.name for r in rules]
         if len(set(names)) != len(names):
             raise ValueError(f"a rule may appear once in the rule list, got {names}")
+        for r in rules:
+            r.rule_kind()  # ValueError for a kind the pipeline does not know
         self.rules = list(rules)
         self._before: RuleContext | None = None
         # seconds spent by the last apply(), per rule name (its adjust and its candidate tests) and "rerank" (the
@@ -95,39 +112,36 @@ class RulePipeline:
         self._before = ctx
 
     def apply(self, q: dict[str, np.ndarray], ctx: RuleContext) -> RuleOutcome:
-        """The maps {"grasp": (R, H, W), "push": (R, H, W)} after every rule, for the decision in `ctx`."""
-        out, shown, push_instead, note = {}, {}, False, ""
-        rejected, vetoed = {"grasp": 0, "push": 0}, {"grasp": False, "push": False}
-        self.timings = timings = {r.name: 0.0 for r in self.rules} | {"rerank": 0.0}
-        for primitive in ("grasp", "push"):
-            rules = [r for r in self.rules if r.primitive == primitive]
-            m = q[primitive]
-            for r in rules:
-                if r.kind == "filter":
-                    m = _timed_adjust(r, m, ctx, timings)
-            shown[primitive] = m
-            for r in rules:
-                if r.kind != "filter":
-                    m = _timed_adjust(r, m, ctx, timings)
-            tested = []
-            for r in rules:
-                start = time.perf_counter()
-                t = r.candidate_test(ctx)
-                timings[r.name] += time.perf_counter() - start
-                if t is not None:
-                    tested.append((r, _timed_test(r.name, t, timings)))
-            if tested:
-                region = ctx.region(primitive)
-                start, inside = time.perf_counter(), sum(timings[r.name] for r, _ in tested)
-                m, rank = rerank(m, region, conjunction([t for _, t in tested]), max(r.top_k for r, _ in tested))
-                timings["rerank"] += time.perf_counter() - start - (sum(timings[r.name] for r, _ in tested) - inside)
-                rejected[primitive] = rank or 0
-                vetoed[primitive] = rank is None and bool((region[None] & np.isfinite(m)).any())
-                vetoers = [r for r, _ in tested if r.vetoes_grasp]
-                if primitive == "grasp" and vetoed[primitive] and vetoers:
-                    push_instead, note = True, vetoers[0].veto_note
-            out[primitive] = m
-        return RuleOutcome(out, shown, push_instead, note, rejected, vetoed)
+        """The maps {"grasp": (R, H, W), "push": (R, H, W)} after every rule, for the decision in `ctx`. The seconds
+        each rule took are in `timings` afterwards."""
+        timer = RuleTimer(r.name for r in self.rules)
+        self.timings = timer.seconds
+        maps = {primitive: self._apply_map(primitive, q[primitive], ctx, timer) for primitive in MAPS}
+        grasp = maps["grasp"]
+        veto = grasp.vetoers[0] if grasp.vetoed and grasp.vetoers else None
+        return RuleOutcome({p: m.q for p, m in maps.items()}, {p: m.shown for p, m in maps.items()},
+                           veto is not None, veto.veto_note if veto is not None else "",
+                           {p: m.rejected for p, m in maps.items()}, {p: m.vetoed for p, m in maps.items()})
+
+    def _apply_map(self, primitive: str, q: np.ndarray, ctx: RuleContext, timer: RuleTimer) -> MapOutcome:
+        """One map through its rules: the adjusts that shape the shown map (filters), then the others, each in list
+        order, then one re-rank by the conjunction of the rules' candidate tests."""
+        rules = [TimedRule(r, timer) for r in self.rules if r.primitive == primitive]
+        for r in rules:
+            if r.rule.rule_kind().shown:
+                q = r.adjust(q, ctx)
+        shown = q
+        for r in rules:
+            if not r.rule.rule_kind().shown:
+                q = r.adjust(q, ctx)
+        tested = [(r.rule, t) for r in rules if (t := r.candidate_test(ctx)) is not None]
+        if not tested:
+            return MapOutcome(q, shown, 0, False, [])
+        region = ctx.region(primitive)
+        with timer.charge("rerank", exclusive=True):
+            q, rank = rerank(q, region, conjunction([t for _, t in tested]), max(r.top_k for r, _ in tested))
+        vetoed = rank is None and bool((region[None] & np.isfinite(q)).any())
+        return MapOutcome(q, shown, rank or 0, vetoed, [r for r, _ in tested if r.vetoes_grasp])
 
     def forced_grasp(self, q: np.ndarray, ctx: RuleContext) -> tuple[np.ndarray, int | None]:
         """(Q_g re-ranked, the fallback level that passed) for a grasp the push budget forces while no candidate of
@@ -147,32 +161,69 @@ class RulePipeline:
         return q, None
 
 
-def _timed_adjust(rule: Rule, m: np.ndarray, ctx: RuleContext, timings: dict[str, float]) -> np.ndarray:
-    start = time.perf_counter()
-    m = rule.adjust(m, ctx)
-    timings[rule.name] += time.perf_counter() - start
-    return m
+class RuleTimer:
+    """Seconds per rule name, and "rerank" (the walk over the candidates itself), of one RulePipeline.apply: what
+    `pushgrasp bench` reports per rule. The timing stays out of the pipeline's logic: TimedRule charges a rule's
+    calls, `charge` is a context manager around any other block."""
 
+    def __init__(self, names: Iterable[str]) -> None:
+        self.seconds: dict[str, float] = {name: 0.0 for name in names} | {"rerank": 0.0}
+        self._charged = 0.0  # every second charged so far, to any name
 
-def _timed_test(name: str, test: CandidateTest, timings: dict[str, float]) -> CandidateTest:
-    """`test` (a BatchTest stays one) adding the seconds it runs to timings[name]."""
-    if isinstance(test, BatchTest):
-        many = test.many
+    def add(self, name: str, start: float, exclusive: bool = False, charged_before: float = 0.0) -> None:
+        """Charge the seconds since `start` (time.perf_counter()) to `name`; exclusive: less what was charged to any
+        name since the total was `charged_before` (the blocks timed inside this one)."""
+        spent = time.perf_counter() - start
+        if exclusive:
+            spent -= self._charged - charged_before
+        self.seconds[name] += spent
+        self._charged += spent
 
-        def timed_many(rots: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    @contextmanager
+    def charge(self, name: str, exclusive: bool = False) -> Iterator[None]:
+        """Charge the block's seconds to `name` (exclusive: less the seconds charged inside it to other names)."""
+        start, before = time.perf_counter(), self._charged
+        try:
+            yield
+        finally:
+            self.add(name, start, exclusive, before)
+
+    def timed(self, name: str, test: CandidateTest) -> CandidateTest:
+        """`test` (a BatchTest stays one) charging the seconds of each call to `name`."""
+        if isinstance(test, BatchTest):
+            many = test.many
+
+            def timed_many(rots: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+                start = time.perf_counter()
+                try:
+                    return many(rots, rows, cols)
+                finally:
+                    self.add(name, start)
+
+            return BatchTest(timed_many)
+
+        def timed_one(rot: int, row: int, col: int) -> bool:
             start = time.perf_counter()
             try:
-                return many(rots, rows, cols)
+                return test(rot, row, col)
             finally:
-                timings[name] += time.perf_counter() - start
+                self.add(name, start)
 
-        return BatchTest(timed_many)
+        return timed_one
 
-    def timed(rot: int, row: int, col: int) -> bool:
-        start = time.perf_counter()
-        try:
-            return test(rot, row, col)
-        finally:
-            timings[name] += time.perf_counter() - start
 
-    return timed
+class TimedRule:
+    """`rule` for one apply: its adjust, its candidate_test and the tests that returns charge their seconds to the
+    timer under the rule's name."""
+
+    def __init__(self, rule: Rule, timer: RuleTimer) -> None:
+        self.rule, self.timer = rule, timer
+
+    def adjust(self, q: np.ndarray, ctx: RuleContext) -> np.ndarray:
+        with self.timer.charge(self.rule.name):
+            return self.rule.adjust(q, ctx)
+
+    def candidate_test(self, ctx: RuleContext) -> CandidateTest | None:
+        with self.timer.charge(self.rule.name):
+            test = self.rule.candidate_test(ctx)
+        return None if test is None else self.timer.timed(self.rule.name, test)

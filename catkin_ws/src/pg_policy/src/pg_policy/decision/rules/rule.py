@@ -11,8 +11,12 @@ Within a trial, `observe(last, before, after)` tells a rule what the previous ac
 contexts before and after it); `reset()` starts a new trial. A grasp rule with `vetoes_grasp` asks the policy to push
 instead when no grasp candidate passes (within the push budget).
 
+A rule's `kind` ("filter", "memory", "check": RULE_KINDS) says how the pipeline treats it: a filter's map is the one
+users see (it runs first on its map), the others shape only the map the decision reads.
+
 Rules are created by name from a model's metadata or the policy options (pg_policy.decision.rules.registry): each
-module of this package that defines a Rule subclass with a `name` is one rule.
+module of this package that defines a Rule subclass with a `name` is one rule, and so is each entry point of the group
+`pushgrasp.rules` of an installed distribution (docs/PLUGINS.md, "Writing a rule").
 """
 
 from __future__ import annotations
@@ -61,6 +65,33 @@ class RuleContext:
         return self.grasp_region if primitive == "grasp" else self.push_region
 
 
+@dataclass(frozen=True)
+class RuleKind:
+    """How the pipeline treats the rules of one kind. shown: the rule's `adjust` shapes the map users see (the
+    policy's q_maps), so it runs on its map before the rules that shape only the decision's map; reach: the default
+    of Rule.reach (0: `adjust` reads no other cell than the one it writes; None: unknown)."""
+
+    name: str
+    shown: bool
+    reach: int | None
+    help: str
+
+
+RULE_KINDS: dict[str, RuleKind] = {k.name: k for k in (
+    RuleKind("filter", True, None, "reshapes the map, and the map users see"),
+    RuleKind("memory", False, 0, "suppresses cells within a trial"),
+    RuleKind("check", False, 0, "a yes/no test of candidates"),
+)}
+
+
+def kind_named(name: str) -> RuleKind:
+    """The RuleKind called `name`; ValueError listing the kinds for another name."""
+    try:
+        return RULE_KINDS[name]
+    except KeyError:
+        raise ValueError(f"unknown rule kind {name!r} (known: {', '.join(RULE_KINDS)})") from None
+
+
 class Rule:
     """Base of every test-time rule (module docstring). Subclasses set `name`, `primitive` and `kind` and override
     what they use; `from_arg` builds the rule from its metadata argument (the text after "name:" in the rule list,
@@ -68,7 +99,7 @@ class Rule:
 
     name: ClassVar[str] = ""
     primitive: ClassVar[str] = "grasp"  # the Q map the rule acts on: "grasp" or "push"
-    kind: ClassVar[str] = "check"  # "filter": shapes the map users see (q_maps); "memory": within-trial; "check"
+    kind: ClassVar[str] = "check"  # a RULE_KINDS key: "filter" shapes the map users see (q_maps); "memory"; "check"
     vetoes_grasp: ClassVar[bool] = False  # no passing grasp candidate asks the policy to push instead
     veto_note: ClassVar[str] = ""  # the policy's last_note when this rule's veto makes it push
     option: ClassVar[PolicyOption | None] = None  # the user option that switches the rule (None: only rule lists)
@@ -80,6 +111,10 @@ class Rule:
         if arg is not None:
             raise ValueError(f"rule {cls.name!r} takes no argument, got {arg!r}")
         return cls(geometry)  # type: ignore[call-arg]
+
+    def rule_kind(self) -> RuleKind:
+        """How the pipeline treats this rule (RULE_KINDS[kind]); ValueError for an unknown kind."""
+        return kind_named(self.kind)
 
     def arg(self) -> str | None:
         """The argument that `from_arg` turns back into this rule (None: no argument)."""
@@ -114,5 +149,5 @@ class Rule:
 
     def reach(self) -> int | None:
         """How far (cells) from a cell `adjust` reads the map to compute that cell's value: 0 for rules that do not
-        reshape the map, None when unknown (then a windowed Q map gets a generous margin)."""
-        return 0 if self.kind != "filter" else None
+        reshape the map, None when unknown (then a windowed Q map gets a generous margin). Default: the kind's."""
+        return self.rule_kind().reach

@@ -1,0 +1,81 @@
+"""The metrics of DESIGN.md section 8 over episode records (pg_policy.target_loop.records.TrialRecord): C, GS and MN,
+each reported as mean +- standard error over trials. `pushgrasp eval` (pg_learning.evaluation) reports them per
+scene, the bag replay (pg_policy.ros.bag_replay) over a recorded experiment's grasp_target calls.
+
+Per-trial quantities and the per-scene metrics:
+  - C  (completion): c_i = 1 if trial i completed else 0, averaged over all trials of the scene.
+  - GS (grasp success): g_i = target grasps_i / grasp attempts_i (0 or 1/attempts, since a trial stops at its first
+    target grasp), averaged over the trials with at least one grasp attempt (undefined when there are none).
+  - MN (motion number): m_i = pushes_i, averaged over the COMPLETED trials only (undefined when none completed).
+Secondary figures kept in the records: ``gs_completed`` (g_i averaged over completed trials only: the "grasp success
+per clearance" of Xu et al.'s evaluate.py), ``actions_completed`` (all actions per completed trial: the "motion
+number" as Xu et al.'s evaluate.py counts it), ``refused`` (refused actions per trial), ``errors`` and ``lost`` (the
+fractions of trials that ended in an error and whose target left the workspace).
+Standard error of n values v_1..v_n with mean m: se = sqrt(sum_i (v_i - m)^2 / (n - 1)) / sqrt(n) (sample standard
+deviation over sqrt(n)); undefined (None) for n < 2.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pg_policy.target_loop.episode import ERROR, TARGET_LOST
+from pg_policy.target_loop.records import TrialRecord
+
+
+@dataclass(frozen=True)
+class Stat:
+    """Mean and standard error of n per-trial values (mean None for n = 0, se None for n < 2)."""
+
+    mean: float | None
+    se: float | None
+    n: int
+
+
+def mean_se(values: Iterable[float]) -> Stat:
+    """Mean and standard error sqrt(sum (v - mean)^2 / (n - 1)) / sqrt(n) of the values (see module docstring)."""
+    v = np.asarray(list(values), dtype=np.float64)
+    n = int(v.size)
+    if n == 0:
+        return Stat(None, None, 0)
+    mean = float(v.mean())
+    se = float(v.std(ddof=1) / math.sqrt(n)) if n > 1 else None
+    return Stat(mean, se, n)
+
+
+def scene_metrics(trials: Sequence[TrialRecord]) -> dict[str, Stat]:
+    """C, GS, MN (and the secondary figures) over the given trials, per the definitions of the module docstring."""
+    done = [t for t in trials if t.completed]
+    return {
+        "C": mean_se(1.0 if t.completed else 0.0 for t in trials),
+        "GS": mean_se(t.grasp_success for t in trials if t.grasp_success is not None),
+        "MN": mean_se(t.pushes for t in done),
+        "gs_completed": mean_se(t.grasp_success for t in done if t.grasp_success is not None),
+        "actions_completed": mean_se(t.n_actions for t in done),
+        "refused": mean_se(t.refused for t in trials),
+        "errors": mean_se(1.0 if t.termination == ERROR else 0.0 for t in trials),  # mean x n = error trials
+        "lost": mean_se(1.0 if t.termination == TARGET_LOST else 0.0 for t in trials),  # mean x n = lost targets
+    }
+
+
+def summarize(trials: Sequence[TrialRecord]) -> dict[str, dict[str, Stat]]:
+    """Per-scene metrics in first-seen scene order, plus "all" over every trial when there are several scenes."""
+    scenes: dict[str, list[TrialRecord]] = {}
+    for t in trials:
+        scenes.setdefault(t.scene, []).append(t)
+    out = {name: scene_metrics(ts) for name, ts in scenes.items()}
+    if len(scenes) > 1:
+        out["all"] = scene_metrics(trials)
+    return out
+
+
+def fmt(stat: Stat, scale: float = 1.0, digits: int = 1) -> str:
+    """'mean ± se' with the given scale and decimals; 'n/a' for no values, 'mean ± n/a' for a single value."""
+    if stat.mean is None:
+        return "n/a"
+    se = "n/a" if stat.se is None else f"{stat.se * scale:.{digits}f}"
+    return f"{stat.mean * scale:.{digits}f} ± {se}"
