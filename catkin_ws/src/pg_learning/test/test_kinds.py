@@ -80,3 +80,21 @@ def test_pooled_table_has_a_column_per_named_set_of_runs(tmp_path, capsys):
     assert main(["--pooled", f"e={tmp_path / 'empty'}"]) == 2 and "no `pushgrasp eval` output folder" in \
         capsys.readouterr().err
     assert main(["--pooled", "x="]) == 2 and "expected NAME=RUN" in capsys.readouterr().err
+
+
+def test_rows_per_arrangement_of_the_hard_household_family():
+    from pg_learning.evaluation.kinds import arrangement_of_trial, pooled_lines
+    from pg_sim.world.arrangements import ARRANGEMENT_NAMES
+
+    assert arrangement_of_trial("household-10", 1_000_000) is None
+    assert arrangement_of_trial("random-10", 1_000_000) is None
+    seeds = range(1_000_000, 1_000_012)
+    assert sorted({arrangement_of_trial("household-hard-8", s) for s in seeds}) == sorted(ARRANGEMENT_NAMES)
+    trials = [TrialRecord(scene="household-hard-8", seed=s, completed=s % 2 == 0, grasps=1,
+                          target_grasps=int(s % 2 == 0)) for s in seeds]
+    trials.append(TrialRecord(scene="household-10", seed=1_000_000, completed=True, grasps=1, target_grasps=1))
+    lines = pooled_lines([("lite", trials)], by="arrangement")
+    assert lines[0].startswith("| arrangement | lite")
+    rows = {ln.split(" | ")[0].strip("| "): ln for ln in lines[2:] if ln}
+    assert sorted(rows) == sorted(ARRANGEMENT_NAMES)  # the household-10 trial is in no row
+    assert all(" 2, " in row for row in rows.values())

@@ -24,6 +24,9 @@ def _arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--pooled", action="store_true",
                         help="runs are NAME=RUN[,RUN...] (a RUN may be a folder of output folders): one table, a "
                              "row per kind and a column per NAME, the scenes of each NAME pooled")
+    parser.add_argument("--by", choices=("kind", "arrangement"), default="kind",
+                        help="with --pooled: a row per kind of target (kind) or per arrangement of the target in the "
+                             "hard household families (arrangement: under, inside, holding, leaning, thin, edge)")
     parser.set_defaults(run=_run)
 
 
@@ -54,7 +57,7 @@ def _run(args: argparse.Namespace) -> int:
         except (OSError, ValueError, KeyError) as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2
-        print("\n".join(pooled_lines(named)) or "(no catalogue-family trials)")
+        print("\n".join(pooled_lines(named, args.by)) or f"(no trials with a {args.by})")
         return 0
     for path in args.runs:
         try:

@@ -11,11 +11,12 @@ eval` ends with the per-scene table (`kind_lines`, pg_learning.evaluation.report
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from functools import lru_cache
 
 from pg_policy.target_loop.metrics import Stat, fmt, scene_metrics
 from pg_policy.target_loop.records import TrialRecord
+from pg_sim.world.arrangements import arrangement_of
 from pg_sim.world.scene_families import FAMILIES, parse_generated, sample_family, target_kind
 
 
@@ -38,24 +39,38 @@ def by_kind(trials: Sequence[TrialRecord]) -> dict[tuple[str, str], dict[str, St
     return {key: scene_metrics(groups[key]) for key in sorted(groups)}
 
 
-def pooled_by_kind(trials: Sequence[TrialRecord]) -> dict[str, dict[str, Stat]]:
-    """{kind: C, GS, MN, ...} over the catalogue-family trials of all scenes together, kinds sorted."""
+def arrangement_of_trial(scene: str, seed: int) -> str | None:
+    """The arrangement of the target (pg_sim.world.arrangements) of a trial of a hard household family, else None."""
+    parsed = parse_generated(scene)
+    return arrangement_of(seed) if parsed is not None and FAMILIES[parsed[0]].arranged else None
+
+
+# grouping name -> (scene, seed) -> group of the trial (None: the trial is in no group)
+GROUPINGS: dict[str, Callable[[str, int], str | None]] = {"kind": target_kind_of, "arrangement": arrangement_of_trial}
+
+
+def pooled_by_kind(trials: Sequence[TrialRecord], by: str = "kind") -> dict[str, dict[str, Stat]]:
+    """{group: C, GS, MN, ...} over the trials of all scenes together, groups sorted; ``by`` names a GROUPINGS entry
+    (the target's kind, or the arrangement of hard families). Raises KeyError for an unknown grouping."""
+    group_of = GROUPINGS[by]
     groups: dict[str, list[TrialRecord]] = {}
     for t in trials:
-        kind = target_kind_of(t.scene, int(t.seed))
+        kind = group_of(t.scene, int(t.seed))
         if kind is not None:
             groups.setdefault(kind, []).append(t)
     return {kind: scene_metrics(groups[kind]) for kind in sorted(groups)}
 
 
-def pooled_lines(named: Sequence[tuple[str, Sequence[TrialRecord]]]) -> list[str]:
-    """Markdown table: a row per target kind, a column per (name, trials) with n, C and GS (%) pooled over its
-    scenes; a kind a set has no trial of shows "-". Empty list when no set has a catalogue-family trial."""
-    tables = [(name, pooled_by_kind(trials)) for name, trials in named]
+def pooled_lines(named: Sequence[tuple[str, Sequence[TrialRecord]]], by: str = "kind") -> list[str]:
+    """Markdown table: a row per group (target kind, or arrangement: ``by``), a column per (name, trials) with n, C
+    and GS (%) pooled over its scenes; a group a set has no trial of shows "-". Empty list when no trial is in a
+    group."""
+    tables = [(name, pooled_by_kind(trials, by)) for name, trials in named]
     kinds = sorted({k for _, table in tables for k in table})
     if not kinds:
         return []
-    lines = ["| target kind | " + " | ".join(f"{name}: n, C / GS (%)" for name, _ in tables) + " |",
+    head = "target kind" if by == "kind" else by
+    lines = [f"| {head} | " + " | ".join(f"{name}: n, C / GS (%)" for name, _ in tables) + " |",
              "|---|" + "---|" * len(tables)]
     for kind in kinds:
         cells = [f"{m['C'].n}, {fmt(m['C'], 100)} / {fmt(m['GS'], 100)}" if (m := table.get(kind)) else "-"
