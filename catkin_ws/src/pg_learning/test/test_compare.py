@@ -47,6 +47,7 @@ def test_cli_writes_markdown_and_png_and_rejects_bad_input(two_policies, tmp_pat
     assert out.exists() and out.with_suffix(".png").stat().st_size > 1000
     assert main(["compare", f"none={tmp_path / 'nothing'}", "--out", str(out)]) == 2  # no results.json
     assert main(["compare", f"good={two_policies / 'good'}", "--out", str(out), "--check", "other"]) == 2
+    assert main(["compare", f"good={two_policies / 'good'}", "--out", str(tmp_path)]) == 2  # a folder, not a file
     with pytest.raises(ValueError, match="in none of the report's families"):
         family_of("kitchen/case1")
 

@@ -4,6 +4,7 @@ the paper's figures and (for --check) the project's targets. See pg_learning.eva
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 
@@ -32,6 +33,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def _run(args: argparse.Namespace) -> int:
     from pg_learning.evaluation import compare
 
+    if args.out.is_dir():
+        print(f"pushgrasp compare: error: --out {str(args.out)[:200]} is a folder; give the markdown file to write "
+              "(e.g. FOLDER/compare.md)", file=sys.stderr)
+        return 2
     policies = [compare.load_policy(name, folder) for name, folder in args.policies]
     text = compare.markdown(policies, args.check)
     args.out.parent.mkdir(parents=True, exist_ok=True)
