@@ -28,6 +28,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from plugin_install import installed, pip, pushgrasp
 
 REPO = Path(__file__).resolve().parents[1]
 PLUGIN_SRC = REPO / "tests" / "plugin_example"
@@ -35,7 +36,6 @@ DIST = "pushgrasp-example-policy"
 POLICY = "example-centroid"
 TARGET = "pushgrasp_example_policy:CentroidGraspPolicy"
 DEVEL = Path(os.environ.get("PG_DEVEL_DIR", REPO / "catkin_ws" / "devel"))
-PIP_TIMEOUT_S = 300
 CLI_TIMEOUT_S = 120
 EVAL_TIMEOUT_S = 900
 STACK_TIMEOUT_S = 180.0  # wall seconds for the simulated stack to come up and answer /pg/infer
@@ -43,42 +43,27 @@ SHUTDOWN_TIMEOUT_S = 30.0
 MARKER = "PG_PLUGIN_TEST_STACK"  # environment variable that tags every process of the test's ROS stack
 
 
-def _pip(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "pip", "--disable-pip-version-check", "--no-input", *args],
-                          capture_output=True, text=True, timeout=PIP_TIMEOUT_S)
-
-
-def _installed() -> bool:
-    return _pip("show", "-q", DIST).returncode == 0
-
-
-def _pushgrasp(*args: str) -> list[str]:
-    """The command line of the pushgrasp CLI of this interpreter's environment."""
-    script = Path(sys.executable).with_name("pushgrasp")
-    return [str(script), *args] if script.is_file() else [sys.executable, "-m", "pg_policy.cli.main", *args]
-
-
 @pytest.fixture(scope="module")
 def example_plugin(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     """Install the example plug-in (offline) for the module; uninstall it afterwards unless it was there before."""
-    was_installed = _installed()
+    was_installed = installed(DIST)
     src = tmp_path_factory.mktemp("plugin") / "plugin_example"
     shutil.copytree(PLUGIN_SRC, src, ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__"))
-    res = _pip("install", "--no-deps", "--no-build-isolation", "--no-index", "-q", str(src))
+    res = pip("install", "--no-deps", "--no-build-isolation", "--no-index", "-q", str(src))
     try:
         assert res.returncode == 0, f"offline install of {PLUGIN_SRC} failed:\n{res.stdout}{res.stderr}"
         importlib.invalidate_caches()
         yield DIST
     finally:
         if not was_installed:
-            out = _pip("uninstall", "-y", "-q", DIST)
+            out = pip("uninstall", "-y", "-q", DIST)
             assert out.returncode == 0, f"uninstalling {DIST} failed:\n{out.stdout}{out.stderr}"
-            assert not _installed(), f"{DIST} is still installed"
+            assert not installed(DIST), f"{DIST} is still installed"
 
 
 # -- the registry ------------------------------------------------------------------------------------------------
 def test_policies_lists_the_plugin_with_its_distribution(example_plugin: str) -> None:
-    res = subprocess.run(_pushgrasp("policies"), cwd=REPO, capture_output=True, text=True, timeout=CLI_TIMEOUT_S)
+    res = subprocess.run(pushgrasp("policies"), cwd=REPO, capture_output=True, text=True, timeout=CLI_TIMEOUT_S)
     assert res.returncode == 0, res.stdout + res.stderr
     rows = [line.split() for line in res.stdout.splitlines()]
     listed = [r for r in rows if r and r[0] == POLICY]
@@ -150,7 +135,7 @@ def test_a_factory_without_the_protocol_is_a_clear_type_error(monkeypatch: pytes
 # -- evaluation --------------------------------------------------------------------------------------------------
 def test_eval_runs_the_plugin(example_plugin: str, tmp_path: Path) -> None:
     out = tmp_path / "eval"
-    cmd = _pushgrasp("eval", "--policy", POLICY, "--scenes", "packed/case01", "--trials", "1", "--out", str(out),
+    cmd = pushgrasp("eval", "--policy", POLICY, "--scenes", "packed/case01", "--trials", "1", "--out", str(out),
                      "--no-progress")
     env = dict(os.environ, OMP_NUM_THREADS="1", MPLBACKEND="Agg")
     res = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=EVAL_TIMEOUT_S)

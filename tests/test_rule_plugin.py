@@ -14,7 +14,6 @@ from __future__ import annotations
 import importlib
 import shutil
 import subprocess
-import sys
 from collections.abc import Iterator
 from pathlib import Path
 from types import SimpleNamespace
@@ -22,30 +21,15 @@ from typing import Any
 
 import numpy as np
 import pytest
+from plugin_install import installed, pip, pushgrasp
 
 REPO = Path(__file__).resolve().parents[1]
 PLUGIN_SRC = REPO / "tests" / "plugin_example" / "rule_plugin"
 DIST = "pushgrasp-example-rule"
 RULE = "example_inner_grasp"
 TARGET = "pushgrasp_example_rule:InnerGrasp"
-PIP_TIMEOUT_S = 300
 CLI_TIMEOUT_S = 120
 GREEN = (89, 161, 79)
-
-
-def _pip(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "pip", "--disable-pip-version-check", "--no-input", *args],
-                          capture_output=True, text=True, timeout=PIP_TIMEOUT_S)
-
-
-def _installed() -> bool:
-    return _pip("show", "-q", DIST).returncode == 0
-
-
-def _pushgrasp(*args: str) -> list[str]:
-    """The command line of the pushgrasp CLI of this interpreter's environment."""
-    script = Path(sys.executable).with_name("pushgrasp")
-    return [str(script), *args] if script.is_file() else [sys.executable, "-m", "pg_policy.cli.main", *args]
 
 
 @pytest.fixture(scope="module")
@@ -54,10 +38,10 @@ def example_rule(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     before. The rule registry is re-read after each."""
     from pg_policy.decision.rules.registry import reload_rules
 
-    was_installed = _installed()
+    was_installed = installed(DIST)
     src = tmp_path_factory.mktemp("rule_plugin") / "rule_plugin"
     shutil.copytree(PLUGIN_SRC, src, ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__"))
-    res = _pip("install", "--no-deps", "--no-build-isolation", "--no-index", "-q", str(src))
+    res = pip("install", "--no-deps", "--no-build-isolation", "--no-index", "-q", str(src))
     try:
         assert res.returncode == 0, f"offline install of {PLUGIN_SRC} failed:\n{res.stdout}{res.stderr}"
         importlib.invalidate_caches()
@@ -65,9 +49,9 @@ def example_rule(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
         yield DIST
     finally:
         if not was_installed:
-            out = _pip("uninstall", "-y", "-q", DIST)
+            out = pip("uninstall", "-y", "-q", DIST)
             assert out.returncode == 0, f"uninstalling {DIST} failed:\n{out.stdout}{out.stderr}"
-            assert not _installed(), f"{DIST} is still installed"
+            assert not installed(DIST), f"{DIST} is still installed"
         importlib.invalidate_caches()
         reload_rules()
 
@@ -101,7 +85,7 @@ def test_the_registry_finds_the_plugin_beside_the_built_in_rules(example_rule: s
 
 
 def test_policies_lists_the_rule_with_its_distribution(example_rule: str) -> None:
-    res = subprocess.run(_pushgrasp("policies"), cwd=REPO, capture_output=True, text=True, timeout=CLI_TIMEOUT_S)
+    res = subprocess.run(pushgrasp("policies"), cwd=REPO, capture_output=True, text=True, timeout=CLI_TIMEOUT_S)
     assert res.returncode == 0, res.stdout + res.stderr
     rows = [line.split() for line in res.stdout.splitlines()]
     listed = [r for r in rows if r and r[0] == RULE]
