@@ -186,6 +186,40 @@ def test_block_tops_edges_and_flanks_keep_the_cell_rule():
         assert _z(roof, roof_color, 70, col, 0.0) == grasp_z(roof, 70, col, PRIMS)
 
 
+def test_edge_cells_leaning_blocks_and_gaps_between_objects_keep_the_cell_rule():
+    height, color = _scene()
+    height[60:80, 50:72], color[60:80, 50:72] = 0.045, GREEN  # a block and a same-coloured one touching it,
+    height[60:80, 72], color[60:80, 72] = 0.024, GREEN  # with an edge cell between them seen half-way down
+    height[60:80, 73:76], color[60:80, 73:76] = 0.041, GREEN  # and a 6 mm sliver of the other block, then table
+    assert _z(height, color, 70, 72, 0.0) == grasp_z(height, 70, 72, PRIMS)
+    ramp, ramp_color = _scene()  # a block leaning on another: its top climbs 24 mm in 24 mm, then its edge
+    for k in range(13):
+        ramp[60:80, 60 + k], ramp_color[60:80, 60 + k] = 0.02 + 0.002 * k, GREEN
+    ramp[60:80, 73:75], ramp_color[60:80, 73:75] = 0.045, GREEN
+    ramp[60:80, 40:60], ramp_color[60:80, 40:60] = 0.03, BLUE  # what it leans on
+    for col in (62, 64, 66):
+        assert _z(ramp, ramp_color, 70, col, 0.0) == grasp_z(ramp, 70, col, PRIMS), col
+    gap, gap_color = _scene()  # a low green part beside a thin green wall, a tall blue box on the other side
+    gap[60:80, 60:70], gap_color[60:80, 60:70] = 0.02, GREEN
+    gap[60:80, 70:72], gap_color[60:80, 70:72] = 0.06, GREEN
+    gap[60:80, 40:60], gap_color[60:80, 40:60] = 0.09, BLUE
+    assert _z(gap, gap_color, 70, 62, 0.0) == grasp_z(gap, 70, 62, PRIMS)
+
+
+def test_a_long_leaning_block_keeps_the_cell_rule_and_a_bowls_inner_wall_does_not():
+    ramp, color = _scene()  # a 100 mm block leaning: its top rises 1 mm per cell to its upper edge at 61 mm
+    for k in range(50):
+        ramp[60:80, 30 + k], color[60:80, 30 + k] = 0.012 + 0.001 * k, GREEN
+    for col in (60, 64, 68):  # the upper edge within reach: a "wall"; the far side falls away on the same block
+        assert _z(ramp, color, 70, col, 0.0) == grasp_z(ramp, 70, col, PRIMS), col
+    height, color = _bowl(*_scene(), 70, 70, radius=0.09, floor_r=0.03, rim=0.07)  # a big bowl, inner wall curving
+    col = 70 - 37  # 74 mm from the axis: on the inner wall, the rim 12 mm further out, the floor 30 mm further in
+    assert height[70, col] > 0.03
+    assert _z(height, color, 70, col, 0.0) == pytest.approx(max(0.07 - PRIMS.grasp_rim_depth,
+                                                               float(height[70, col]) + PRIMS.grasp_rim_clearance))
+    assert grasp_z(height, 70, col, PRIMS) == PRIMS.grasp_min_z  # the cell alone: fingertips 12 mm up
+
+
 def test_a_thin_object_on_the_table_keeps_the_low_object_rule():
     height, color = _scene()
     height[60:80, 40:100], color[60:80, 40:100] = 0.0025, GREEN  # a knife blade lying

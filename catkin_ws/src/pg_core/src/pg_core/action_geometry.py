@@ -52,8 +52,10 @@ def grasp_z_for_height(h: float, prims: PrimitiveSpec) -> float:
     return max(h - prims.grasp_depth, prims.grasp_min_z)
 
 
-def _side_wall(h: np.ndarray, same: np.ndarray, centre: float, reach: int, wall: int, step: float) -> float | None:
-    """Top (m) of the wall on one side of the jaw line, or None.
+def _side_wall(h: np.ndarray, same: np.ndarray, centre: float, reach: int, wall: int,
+               step: float) -> tuple[float, int, int] | None:
+    """(top (m), index of the first cell within step / 2 of it, index of the top) of the wall on one side of the
+    jaw line, or None.
 
     h, same: heights (m) and same-object flags of the cells 1, 2, ... m from the centre along the side (beyond the
     map: not the same object). The walk follows the centre's object up to `reach` cells; a wall is its highest
@@ -69,7 +71,7 @@ def _side_wall(h: np.ndarray, same: np.ndarray, centre: float, reach: int, wall:
     j0 = int(np.argmax(h[:n] >= top - step / 2))
     for k in range(j0 + 1, min(j0 + 1 + wall, len(h))):
         if k >= run or h[k] <= top - step:
-            return top
+            return top, j0, int(np.argmax(h[:n]))
     return None
 
 
@@ -89,10 +91,17 @@ def rim_pit(height: np.ndarray, row: int, col: int, yaw: float, resolution: floa
     m to each side (half the open jaw). From the centre cell, which must belong to an object (at least PIT_TABLE_M
     above the table), each side is walked over cells of the same object (not the table; colour within
     PIT_CHROMA_TOL of the centre's when `color`, the (H, W, 3) colour heightmap, is given). The cell is in a pit
-    when one side meets a wall (its top at least `grasp_rim_step` above the centre, falling again within
-    `grasp_rim_wall` beyond it: a rim, not a plateau) and the other side meets a wall too or stays off the table
-    over the whole reach (a floor between walls, not an object's flank or a handle). `rim`: the lower of the walls
-    met."""
+    when
+    - one side meets a wall: its top at least `grasp_rim_step` (s) above the centre, falling s again within
+      `grasp_rim_wall` beyond it (a rim, not a plateau or a block's top);
+    - the other side meets a wall too, or stays off the table over the whole reach and on the same object over
+      `grasp_rim_wall` (a floor between walls, not an object's flank, a handle or a gap between two objects);
+    - the cell is a floor or a vessel's inner wall: a neighbour on the line lies within s / 2 of its height (not an
+      edge cell between two heights), nothing lies more than s / 2 below it before a wall, and where the other
+      side falls more than s / 2 below it, that side stays on the same object over the whole reach and the cell
+      lies s / 2 or more below the straight line from the wall's top to the reach's end on that side (the
+      inside of a vessel curving down to its floor, not the flat top of a block leaning on another).
+    `rim`: the lower of the walls met; `floor`: the cell's height."""
     step, reach_m = prims.grasp_rim_step, prims.grasp_rim_reach
     if step <= 0 or reach_m <= 0:
         return None
@@ -110,6 +119,8 @@ def rim_pit(height: np.ndarray, row: int, col: int, yaw: float, resolution: floa
     inside = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
     rr, cc = np.clip(rr, 0, rows - 1), np.clip(cc, 0, cols - 1)
     h = height[rr, cc].astype(np.float64) + zmin
+    if min(abs(h[0, 0] - centre), abs(h[1, 0] - centre)) > step / 2:
+        return None  # a crack, not a floor: neither neighbour on the line is near the cell's height (an edge cell)
     obj = inside & (h >= PIT_TABLE_M)
     same = obj.copy()
     if color is not None and np.shape(color)[:2] == height.shape:
@@ -117,14 +128,23 @@ def rim_pit(height: np.ndarray, row: int, col: int, yaw: float, resolution: floa
         c = np.asarray(color[rr, cc], dtype=np.float64)
         chroma = c / np.maximum(c.sum(axis=-1, keepdims=True), 1.0)
         same &= np.abs(chroma - c0 / max(float(c0.sum()), 1.0)).max(axis=-1) <= PIT_CHROMA_TOL
-    tops = [_side_wall(h[i], same[i], centre, reach, wall, step) for i in (0, 1)]
-    off_table = [bool(obj[i, :reach].all()) for i in (0, 1)]
-    walls = [t for t in tops if t is not None]
-    if not walls:
+    sides = [_side_wall(h[i], same[i], centre, reach, wall, step) for i in (0, 1)]
+    if sides[0] is None and sides[1] is None:
         return None
-    if len(walls) == 1 and not off_table[1 if tops[0] is not None else 0]:
-        return None
-    return RimPit(centre, min(walls))
+    low = centre - step / 2
+    for i, side in enumerate(sides):
+        if side is not None:
+            if (h[i, :side[1]] < low).any():
+                return None  # the surface falls away from the cell before the wall: not a floor
+            continue
+        if not (obj[i, :reach].all() and same[i, :wall].all()):
+            return None  # the other side reaches the table or another object: a flank, a handle, not a floor
+        if (h[i, :reach] < low).any():  # it falls away: a vessel's inner wall (curving down to its floor) or a slope
+            top, _, jt = sides[1 - i]  # type: ignore[misc]
+            chord = h[i, reach - 1] + (top - h[i, reach - 1]) * reach / (reach + jt + 1)
+            if not same[i, :reach].all() or centre > chord - step / 2:
+                return None  # a leaning block's flat slope, or one ending on something else: not a vessel's inside
+    return RimPit(centre, min(side[0] for side in sides if side is not None))
 
 
 def grasp_z(height: np.ndarray, row: int, col: int, prims: PrimitiveSpec, zmin: float = 0.0, *,
