@@ -24,7 +24,6 @@ are paths relative to a scene folder without ``.yaml`` (``packed/case01``); the 
 
 from __future__ import annotations
 
-import contextlib
 import difflib
 import math
 import os
@@ -36,7 +35,6 @@ from typing import Any
 import yaml
 
 from pg_core.palette import shown_name
-from pg_core.resources import PackageNotFound, scene_folder
 from pg_sim.scenes.colors import PALETTE, color_name, resolve_color
 from pg_sim.scenes.meshes import mesh_extents
 from pg_sim.scenes.scene_limits import DEFAULT_LIMITS, SceneLimits
@@ -45,6 +43,10 @@ from pg_sim.scenes.shapes import REGISTRY, known_shapes
 from pg_sim.scenes.short_repr import short
 
 SCENE_PATH_ENV = "PG_SCENE_PATH"
+_PKG_SCENES = (
+    Path(__file__).resolve().parents[3] / "scenes",  # source / devel space: catkin_ws/src/pg_sim/scenes
+    Path(__file__).resolve().parents[5] / "share" / "pg_sim" / "scenes",  # install space: lib/python3/dist-packages
+)
 _TOP_KEYS = {"name", "target", "family", "objects"}
 _OBJECT_KEYS = {"shape", "size", "scale", "color", "pose", "target", "name", "mesh", "mass", "friction"}
 
@@ -370,11 +372,9 @@ def save_scene(scene: SceneSpec, path: str | os.PathLike[str]) -> Path:
 
 
 def scene_dirs() -> list[Path]:
-    """Existing folders searched for scene names: ``$PG_SCENE_PATH`` entries, then pg_sim's scenes/."""
+    """Folders searched for scene names: ``$PG_SCENE_PATH`` entries, then the package's scenes/ (existing only)."""
     extra = [Path(d) for d in os.environ.get(SCENE_PATH_ENV, "").split(os.pathsep) if d]
-    with contextlib.suppress(PackageNotFound):  # pg_sim's own folder, found through the package system
-        extra.append(scene_folder())
-    return [d for d in extra if d.is_dir()]
+    return [d for d in (*extra, *_PKG_SCENES) if d.is_dir()]
 
 
 def list_scenes() -> list[str]:
