@@ -12,7 +12,7 @@ import pytest
 
 from pg_sim.scenes import meshes, shapes
 from pg_sim.scenes.colors import COLORS, PALETTE, color_name, nearest_color_name, resolve_color
-from pg_sim.scenes.objects import object_pose, spawn_object
+from pg_sim.scenes.objects import build_shape, object_pose, spawn_object
 from pg_sim.scenes.scene import ObjectSpec
 
 BLOCKS = ("cube", "rect", "triangle", "arch", "cylinder", "half_cube", "half_cylinder")
@@ -44,8 +44,22 @@ def _plane(cid: int) -> int:
     return p.createMultiBody(0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid), physicsClientId=cid)
 
 
+def _spec(shape: str, pose=(0, 0, 0.5, 0, 0, 0), size=None) -> ObjectSpec:
+    return ObjectSpec(shape, size, COLORS["blue"], tuple(float(v) for v in pose), name=shape)
+
+
 def _spawn(cid: int, shape: str, pose=(0, 0, 0.5, 0, 0, 0), size=None) -> int:
-    return spawn_object(cid, ObjectSpec(shape, size, COLORS["blue"], tuple(float(v) for v in pose), name=shape))
+    return spawn_object(cid, _spec(shape, pose, size))
+
+
+def _pieces(cid: int, spec: ObjectSpec) -> int:
+    """Collision pieces of the shape `spec` spawns with. Objects are maximal-coordinate bodies, whose shapes PyBullet
+    does not report: the same collision shape is inspected on a reduced-coordinate body made for the purpose."""
+    col, _, _ = build_shape(cid, spec)
+    probe = p.createMultiBody(0.0, col, physicsClientId=cid)
+    n = len(p.getCollisionShapeData(probe, -1, physicsClientId=cid))
+    p.removeBody(probe, physicsClientId=cid)
+    return n
 
 
 def _settle(cid: int, steps: int = 480) -> None:
@@ -98,8 +112,8 @@ def test_every_shape_rests_on_its_nominal_height(client: int, name: str) -> None
 
 
 def test_arch_is_a_compound_with_its_notch_at_plus_y(client: int) -> None:
-    body = _spawn(client, "arch", (0, 0, 0, 0, 0, 0))
-    assert len(p.getCollisionShapeData(body, -1, physicsClientId=client)) > 1
+    _spawn(client, "arch", (0, 0, 0, 0, 0, 0))
+    assert _pieces(client, _spec("arch")) > 1
     # Ray along -y through the middle enters the notch: first hit at the notch bottom (y = 0.0225 - 0.0235).
     hit = _ray(client, (0, 0.2, 0), (0, -0.2, 0))
     assert hit is not None and hit[1] == pytest.approx(-0.001, abs=1.5e-3)
@@ -139,8 +153,8 @@ def test_half_cylinder_flat_side_faces_plus_y_and_triangle_apex_minus_x(client: 
 
 
 def test_mug_is_hollow(client: int) -> None:
-    body = _spawn(client, "mug", (0, 0, 0, 0, 0, 0))
-    assert len(p.getCollisionShapeData(body, -1, physicsClientId=client)) > 1
+    _spawn(client, "mug", (0, 0, 0, 0, 0, 0))
+    assert _pieces(client, _spec("mug")) > 1
     size = shapes.REGISTRY["mug"].default_size
     cx = -size[0] / 2 + size[1] / 2  # body axis (the handle is at +x)
     hit = _ray(client, (cx, 0, 0.3), (cx, 0, -0.3))
@@ -188,8 +202,9 @@ def test_mesh_shape_convex_loads_directly_concave_is_decomposed_once(client: int
     poly = [(0, 0), (0.06, 0), (0.06, 0.03), (0.03, 0.03), (0.03, 0.06), (0, 0.06)]
     _write_prism_obj(ell, poly, 0.015, [(3, 4, 5), (3, 5, 0), (3, 0, 1), (3, 1, 2)])
     assert not meshes.is_convex(meshes.load_obj(ell))
-    body = spawn_object(client, ObjectSpec("mesh", None, (1, 2, 3), (0, 0, 0, 0, 0, 0), str(ell)))
-    assert len(p.getCollisionShapeData(body, -1, physicsClientId=client)) > 1
+    ell_spec = ObjectSpec("mesh", None, (1, 2, 3), (0, 0, 0, 0, 0, 0), str(ell))
+    spawn_object(client, ell_spec)
+    assert _pieces(client, ell_spec) > 1
     cached = list(shapes.cache_dir("vhacd").glob("*.obj"))
     assert len(cached) == 1
     stamp = cached[0].stat().st_mtime_ns

@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
 import pybullet as p
 
 from pg_sim.scenes.colors import rgba
@@ -28,6 +29,8 @@ class Contact:
 
 
 DEFAULT_CONTACT = Contact()
+OBJECT_DAMPING = float(np.float32(0.04))  # 1/s: linear and angular damping of every object (Bullet's multibody
+# default; its rigid bodies default to none, and objects used to be multibodies: the same settling behaviour)
 
 
 def build_shape(client: int, spec: ObjectSpec) -> tuple[int, int, float]:
@@ -43,7 +46,12 @@ def build_shape(client: int, spec: ObjectSpec) -> tuple[int, int, float]:
 
 
 def spawn_object(client: int, spec: ObjectSpec, contact: Contact = DEFAULT_CONTACT) -> int:
-    """Create ``spec`` as a dynamic multibody at ``spec.pose`` with its colour; returns the PyBullet body id.
+    """Create ``spec`` as a dynamic rigid body at ``spec.pose`` with its colour; returns the PyBullet body id.
+
+    Objects are single-link bodies in maximal coordinates (Bullet's btRigidBody): their contacts are solved with
+    split impulses, so a penetration (a finger wedged under a lying can, a screwdriver shaft pressed into the
+    table) is pushed apart without adding velocity. As reduced-coordinate multibodies, such a penetration was
+    resolved by a velocity that flung the object tens of centimetres (docs/RESULTS.md, "Household objects").
 
     Raises ValueError / FileNotFoundError as ``build_shape`` and RuntimeError if PyBullet refuses the body.
     """
@@ -53,7 +61,7 @@ def spawn_object(client: int, spec: ObjectSpec, contact: Contact = DEFAULT_CONTA
     quat = p.getQuaternionFromEuler([roll, pitch, yaw], physicsClientId=client)
     body = p.createMultiBody(
         baseMass=mass, baseCollisionShapeIndex=col, baseVisualShapeIndex=vis, basePosition=[x, y, z],
-        baseOrientation=quat, physicsClientId=client,
+        baseOrientation=quat, useMaximalCoordinates=True, physicsClientId=client,
     )
     if body < 0:
         raise RuntimeError(f"PyBullet could not create object {spec.name!r} ({spec.shape})")
@@ -61,6 +69,7 @@ def spawn_object(client: int, spec: ObjectSpec, contact: Contact = DEFAULT_CONTA
     p.changeDynamics(
         body, -1, lateralFriction=contact.lateral_friction, spinningFriction=contact.spinning_friction,
         rollingFriction=contact.rolling_friction, restitution=contact.restitution,
+        linearDamping=OBJECT_DAMPING, angularDamping=OBJECT_DAMPING,
         activationState=p.ACTIVATION_STATE_ENABLE_SLEEPING,  # resting objects sleep until touched: faster steps
         physicsClientId=client,
     )

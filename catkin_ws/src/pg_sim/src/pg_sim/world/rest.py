@@ -5,7 +5,7 @@ dropped on its side keeps rolling across the table (rolling friction is small) a
 seconds. `bring_to_rest` is for callers that promise a scene at rest (the sim node's reset). When every object is
 already at rest it steps nothing, so such scenes stay bit-identical. Otherwise every object seen moving gets a strong
 linear and angular damping while the world steps on, until all objects are at rest or ``timeout`` s of sim time
-have passed; the damped objects then get PyBullet's default damping back.
+have passed; the damped objects then get their spawn damping (pg_sim.scenes.objects.OBJECT_DAMPING) back.
 
 An object is at rest when its velocity is below REST_LIN_TOL and REST_ANG_TOL, or when it has stayed within
 STILL_POS_TOL and STILL_ANG_TOL of its pose for STILL_WINDOW s: a block wedged in a pile can jitter in place at
@@ -22,13 +22,13 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from pg_sim.scenes.objects import OBJECT_DAMPING
 from pg_sim.world.world import World
 
 REST_LIN_TOL = 2e-3   # m/s: an object slower than this (and REST_ANG_TOL) is at rest, as in World.settle
 REST_ANG_TOL = 2e-2   # rad/s
 REST_TIMEOUT = 3.0    # s of sim time that damped objects get to stop
 REST_DAMPING = 10.0   # 1/s: linear and angular damping of a damped object (velocity halves in about 0.07 s)
-PYBULLET_DAMPING = float(np.float32(0.04))  # 1/s: the damping PyBullet gives every body (a float, hence float32)
 STILL_WINDOW = 0.5    # s: an object whose pose stays within the tolerances below this long is at rest ...
 STILL_POS_TOL = 1e-3  # m
 STILL_ANG_TOL = 1e-2  # rad
@@ -81,7 +81,7 @@ def bring_to_rest(world: World, timeout: float = REST_TIMEOUT, damping: float = 
             moving = [b for b in moving_objects(world, lin_tol, ang_tol) if not stayed_still(poses.get(b, []))]
     finally:
         for body in damped:
-            p.changeDynamics(body, -1, linearDamping=PYBULLET_DAMPING, angularDamping=PYBULLET_DAMPING,
+            p.changeDynamics(body, -1, linearDamping=OBJECT_DAMPING, angularDamping=OBJECT_DAMPING,
                              physicsClientId=world.client)
     names = world.objects
     return RestReport(world.sim_time - t0, tuple(names[b].name for b in damped), tuple(names[b].name for b in moving))
