@@ -1,0 +1,182 @@
+"""Object segmentation of a top-down heightmap without a colour palette: which cells belong to which object.
+
+Contract. Input: a pg_core.heightmap.Heightmap in `world` ((H, W) cells, rows along y, columns along x; height in
+metres above the workspace zmin; colour (H, W, 3) uint8 RGB; valid (H, W) bool). Object cells are valid cells higher
+than pg_core.heightmap.OBJECT_HEIGHT_M; every other cell is table (or unseen) and carries label 0.
+
+Method (OpenCV and scipy.ndimage):
+1. edges: a cell lies on an edge when, within its 3 x 3 neighbourhood, the height spans at least DEPTH_EDGE_M (a step
+   between objects of different height, or an object and the table) or the colour spans at least COLOUR_EDGE (the
+   CIE Lab distance between the extreme neighbours, chroma weighted above lightness so that shading on a curved top
+   is no edge); invalid cells count as edges too (the unseen side of an object is where two objects meet);
+2. seeds: the object cells off every edge, shrunk by SEED_ERODE_CELLS, split into 8-connected components; components
+   smaller than MIN_SEED_CELLS are dropped (slivers between edges);
+3. watershed (scipy.ndimage.watershed_ift) of the edge strength from those seeds, the table being one more seed, so
+   every object cell joins the seed it reaches over the lowest edges; two touching objects of different height or
+   colour stay apart, while one object of uniform height and colour is one seed and one label;
+4. object cells the table basin reaches first (rims, pieces too thin for a seed) join the nearest label when they
+   touch one, else form a label of their own; labels under MIN_OBJECT_CELLS cells are dropped to 0.
+
+Touching objects of the same height AND colour are told apart only by the gap of invalid or darker side cells the
+camera sees between them; where none is seen they share one label. Labels are 1..N, numbered in raster order of
+their first cell (deterministic for a given heightmap).
+
+Raised: ValueError for a heightmap whose arrays disagree in shape or dtype, and (`segment_at`) for a cell outside
+the grid, invalid, on bare table, or on a sliver that belongs to no object.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from scipy import ndimage
+
+from pg_core.heightmap import OBJECT_HEIGHT_M, Heightmap
+
+DEPTH_EDGE_M = 0.006  # height span (m) within a 3 x 3 neighbourhood that makes a depth edge (3 mm per 2 mm cell)
+COLOUR_EDGE = 18.0  # weighted Lab span within a 3 x 3 neighbourhood that makes a colour edge (about 18 delta-E)
+LIGHTNESS_WEIGHT = 0.35  # weight of Lab lightness against chroma in the colour span (shading changes lightness)
+SEED_ERODE_CELLS = 1  # seeds are shrunk by this many cells (8-neighbourhood) off every edge
+MIN_SEED_CELLS = 12  # seed components smaller than this (cells; 0.5 cm^2 at 2 mm) are slivers, not objects
+MIN_OBJECT_CELLS = 20  # labels smaller than this (cells) are speckle and dropped to 0
+SNAP_RADIUS_CELLS = 2  # `segment_at` on an unlabelled object cell takes the object within this many cells
+EDGE_LEVELS = 255  # edge strengths are quantised to 0..EDGE_LEVELS for the watershed (uint8)
+
+
+def _check(hm: Heightmap) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The heightmap's (height float32, colour uint8, valid bool) arrays; ValueError when they disagree."""
+    height = np.asarray(hm.height, dtype=np.float32)
+    color = np.asarray(hm.color)
+    valid = np.asarray(hm.valid, dtype=bool)
+    if height.ndim != 2 or valid.shape != height.shape:
+        raise ValueError(f"heightmap height {height.shape} and valid {valid.shape} must be the same (H, W)")
+    if color.shape != height.shape + (3,) or color.dtype != np.uint8:
+        raise ValueError(f"heightmap color must be (H, W, 3) uint8 matching height {height.shape}, got "
+                         f"{color.shape} {color.dtype}")
+    return height, color, valid
+
+
+def object_cells(hm: Heightmap) -> np.ndarray:
+    """(H, W) bool: the valid cells higher than OBJECT_HEIGHT_M (the cells that hold an object)."""
+    height, _, valid = _check(hm)
+    return valid & (height > OBJECT_HEIGHT_M)
+
+
+def lab_image(color: np.ndarray) -> np.ndarray:
+    """(H, W, 3) float32 CIE Lab (L in 0..100, a and b about -128..127) of an (H, W, 3) uint8 RGB image."""
+    rgb = np.ascontiguousarray(color, dtype=np.uint8).astype(np.float32) / 255.0
+    return cv2.cvtColor(rgb, cv2.COLOR_RGB2LAB)
+
+
+def _span(image: np.ndarray) -> np.ndarray:
+    """Per-cell max minus min over the 3 x 3 neighbourhood (morphological gradient) of a float32 image."""
+    kernel = np.ones((3, 3), np.uint8)
+    return cv2.morphologyEx(image, cv2.MORPH_GRADIENT, kernel, borderType=cv2.BORDER_REPLICATE)
+
+
+def edge_strength(hm: Heightmap) -> np.ndarray:
+    """(H, W) float32 edge strength, 1.0 at the edge thresholds: the larger of the height span / DEPTH_EDGE_M and
+    the weighted Lab span / COLOUR_EDGE over each cell's 3 x 3 neighbourhood; invalid cells are edges (2.0)."""
+    height, color, valid = _check(hm)
+    depth = _span(np.where(valid, height, 0.0).astype(np.float32)) / DEPTH_EDGE_M
+    lab = lab_image(color)
+    weights = np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
+    spans = np.stack([_span(np.ascontiguousarray(lab[..., i])) for i in range(3)], axis=-1) * weights
+    colour = np.sqrt((spans**2).sum(axis=-1)) / COLOUR_EDGE
+    strength = np.maximum(depth, colour)
+    strength[~valid] = np.maximum(strength[~valid], 2.0)
+    return strength.astype(np.float32)
+
+
+def _seeds(objects: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray, int]:
+    """int32 seed labels 1..n of the edge-free object cells (eroded, components >= MIN_SEED_CELLS) and n."""
+    core = (objects & ~edges).astype(np.uint8)
+    if SEED_ERODE_CELLS > 0:
+        core = cv2.erode(core, np.ones((3, 3), np.uint8), iterations=SEED_ERODE_CELLS,
+                         borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(core, connectivity=8)
+    keep = stats[:, cv2.CC_STAT_AREA] >= MIN_SEED_CELLS
+    keep[0] = False
+    remap = np.zeros(count, np.int32)
+    remap[keep] = np.arange(1, int(keep.sum()) + 1, dtype=np.int32)
+    return remap[labels], int(keep.sum())
+
+
+def _renumber(labels: np.ndarray) -> np.ndarray:
+    """Labels >= MIN_OBJECT_CELLS cells renumbered 1..N in raster order of their first cell; the rest to 0."""
+    flat = labels.ravel()
+    ids, first, counts = np.unique(flat, return_index=True, return_counts=True)
+    keep = (ids > 0) & (counts >= MIN_OBJECT_CELLS)
+    order = ids[keep][np.argsort(first[keep], kind="stable")]
+    remap = np.zeros(int(ids.max()) + 1 if len(ids) else 1, np.int32)
+    remap[order] = np.arange(1, len(order) + 1, dtype=np.int32)
+    return remap[labels]
+
+
+def segment_objects(hm: Heightmap) -> np.ndarray:
+    """(H, W) int32 object labels of the heightmap: 0 on table and invalid cells, 1..N one per object found.
+
+    Raises ValueError when the heightmap's arrays disagree in shape or dtype (see the module docstring for the
+    method and its limits)."""
+    objects = object_cells(hm)
+    labels = np.zeros(objects.shape, np.int32)
+    if not objects.any():
+        return labels
+    strength = edge_strength(hm)
+    seeds, n = _seeds(objects, strength >= 1.0)
+    markers = seeds.copy()
+    markers[~objects] = n + 1  # the table (and unseen cells): one more basin that stops every object at its rim
+    levels = np.clip(strength * (EDGE_LEVELS / 4.0), 0, EDGE_LEVELS).astype(np.uint8)  # 4 x threshold saturates
+    flooded = ndimage.watershed_ift(levels, markers, structure=np.ones((3, 3), bool)).astype(np.int32)
+    labels = np.where(objects & (flooded <= n), flooded, 0)
+    return _renumber(_adopt_orphans(labels, objects & (labels == 0), n))
+
+
+def _adopt_orphans(labels: np.ndarray, orphans: np.ndarray, n: int) -> np.ndarray:
+    """Object cells the table basin reached first (rims, thin pieces): a piece touching labelled cells joins the
+    nearest label cell by cell; a piece touching none becomes a label of its own (numbered after n)."""
+    if not orphans.any():
+        return labels
+    count, parts = cv2.connectedComponents(orphans.astype(np.uint8), connectivity=8)
+    grown = cv2.dilate((labels > 0).astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    touching = np.zeros(count, bool)
+    touching[np.unique(parts[grown & orphans])] = True
+    touching[0] = False
+    out = np.where(orphans & ~touching[parts], parts + n, labels).astype(np.int32)
+    if touching.any() and (labels > 0).any():
+        _, (near_r, near_c) = ndimage.distance_transform_edt(labels == 0, return_indices=True)
+        adopt = orphans & touching[parts]
+        out[adopt] = labels[near_r[adopt], near_c[adopt]]
+    return out
+
+
+def segment_at(hm: Heightmap, row: int, col: int, labels: np.ndarray | None = None) -> np.ndarray:
+    """(H, W) bool mask of the one object at heightmap cell (row, col).
+
+    labels: the heightmap's `segment_objects` labels when already computed (else computed here).
+    Raises ValueError when the cell lies outside the grid, is invalid, is bare table (not higher than
+    OBJECT_HEIGHT_M), or no object label lies within SNAP_RADIUS_CELLS of it.
+    """
+    height, _, valid = _check(hm)
+    rows, cols = height.shape
+    if not (0 <= row < rows and 0 <= col < cols):
+        raise ValueError(f"cell (row {row}, col {col}) lies outside the {rows} x {cols} heightmap")
+    if not valid[row, col]:
+        raise ValueError(f"cell (row {row}, col {col}) is invalid (nothing seen there)")
+    if height[row, col] <= OBJECT_HEIGHT_M:
+        raise ValueError(f"cell (row {row}, col {col}) is bare table: {height[row, col] * 1000:.1f} mm high, "
+                         f"objects are higher than {OBJECT_HEIGHT_M * 1000:.0f} mm")
+    labels = segment_objects(hm) if labels is None else np.asarray(labels)
+    if labels.shape != height.shape:
+        raise ValueError(f"labels {labels.shape} do not match the heightmap {height.shape}")
+    label = int(labels[row, col])
+    if label == 0:
+        k = SNAP_RADIUS_CELLS
+        r0, c0 = max(row - k, 0), max(col - k, 0)
+        window = labels[r0 : row + k + 1, c0 : col + k + 1]
+        hits = np.argwhere(window > 0)
+        if len(hits) == 0:
+            raise ValueError(f"cell (row {row}, col {col}) lies on a sliver that belongs to no object")
+        near = hits[np.argmin(((hits - [row - r0, col - c0]) ** 2).sum(axis=1))]
+        label = int(window[near[0], near[1]])
+    return labels == label

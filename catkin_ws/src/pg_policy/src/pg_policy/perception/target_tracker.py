@@ -1,0 +1,180 @@
+"""Keeping a target named by a mask on the same object from one heightmap to the next, without a colour palette.
+
+`TargetTracker.start(hm, mask)` records the target's appearance in its first view: median CIE Lab colour, area
+(cells), median and top height (m) and shape (first Hu moment, axis ratio), and its place (the mask).
+`update(hm, shift_xy)` segments each new heightmap (pg_policy.perception.segmentation.segment_objects) and scores
+every segment against that record; each term lies in [0, 1]:
+
+- colour: exp(-dE / COLOUR_SCALE), dE the Lab distance with lightness weighted by LIGHTNESS_WEIGHT (shading);
+- form: the mean of the height term exp(-dh / HEIGHT_SCALE_M) (dh: the mean absolute difference of the median and
+  the top height), the area ratio min/max, and the shape term exp(-|d hu1| / HU1_SCALE - |d ratio| / RATIO_SCALE)
+  (first Hu moment and minor/major axis ratio: invariant to rotation and translation);
+- place: the larger of the overlap, IoU of the segment with the last mask moved by `shift_xy` (the displacement a
+  push predicts), and the nearness exp(-d / DISTANCE_SCALE_M), d the distance between the segment's centroid and
+  the predicted one.
+
+The score is the weighted mean (W_COLOUR, W_FORM, W_PLACE); the best segment is the target when its score
+reaches FOUND_SCORE, and the track is unsure when the score stays under SURE_SCORE or the runner-up comes within
+MARGIN of it. Objects of one colour are told apart by form and place alone. The appearance stays that of
+the first view; the place follows every found track. A target not found leaves the place where it was last seen.
+
+Frames and units: masks are (H, W) bool over the heightmap cells (pg_core.heightmap: rows along y, columns along x);
+`shift_xy` is (dx, dy) metres in `world`; heights and distances in metres. Deterministic: the same heightmaps give
+the same tracks. Raised: ValueError for a mask whose shape differs from the heightmap's or that holds no cell;
+RuntimeError for `update` before `start`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from pg_core.heightmap import Heightmap
+from pg_policy.perception.segmentation import LIGHTNESS_WEIGHT, lab_image, segment_objects
+
+COLOUR_SCALE = 12.0  # Lab distance (delta-E, lightness weighted) at which the colour term falls to 1/e
+HEIGHT_SCALE_M = 0.01  # median height difference (m) at which the height term falls to 1/e
+HU1_SCALE = 0.03  # first Hu moment difference (a square 0.167, a 2:1 rectangle 0.208) weighing 1/e
+RATIO_SCALE = 0.3  # minor/major axis ratio difference (a square 1, a 2:1 rectangle 0.5) weighing 1/e
+DISTANCE_SCALE_M = 0.05  # centroid distance (m) from the predicted place at which the nearness term falls to 1/e
+W_COLOUR, W_FORM, W_PLACE = 0.3, 0.3, 0.4  # weights of the terms (sum 1)
+FOUND_SCORE = 0.45  # a best segment scoring below this is not the target: the target is hidden
+SURE_SCORE = 0.65  # a found target scoring below this is unsure
+MARGIN = 0.08  # a runner-up scoring within this of the best makes the track unsure
+TOP_QUANTILE = 0.9  # the target's "top" height is this quantile of its cells' heights
+
+
+@dataclass(frozen=True, eq=False)
+class Track:
+    """One observation's target: mask (H, W) bool (empty: not found, hidden), confidence in [0, 1] (the best
+    segment's score), unsure (too low a score or a close runner-up) and why (one line for the decision record)."""
+
+    mask: np.ndarray
+    confidence: float
+    unsure: bool
+    why: str
+
+
+@dataclass(frozen=True, eq=False)
+class Appearance:
+    """What a mask shows: median Lab (3,), area (cells), median and top height (m), first Hu moment, minor/major
+    axis ratio in [0, 1] and centroid (row, col) in cells."""
+
+    lab: np.ndarray
+    area: int
+    height: float
+    top: float
+    hu1: float
+    ratio: float
+    centroid: tuple[float, float]
+
+
+def describe(hm: Heightmap, mask: np.ndarray, lab: np.ndarray | None = None) -> Appearance:
+    """The Appearance of the (non-empty, (H, W) bool) `mask` in `hm`; `lab`: hm's Lab image when already made."""
+    lab = lab_image(hm.color) if lab is None else lab
+    cells = mask & np.asarray(hm.valid, dtype=bool)
+    cells = cells if cells.any() else mask
+    heights = np.asarray(hm.height, dtype=np.float64)[cells]
+    m = cv2.moments(mask.astype(np.uint8), binaryImage=True)
+    cov = np.array([[m["mu20"], m["mu11"]], [m["mu11"], m["mu02"]]]) / m["m00"]
+    low, high = np.linalg.eigvalsh(cov)  # variances along the minor and major axes (cells^2)
+    ratio = math.sqrt(max(low, 0.0) / high) if high > 0 else 1.0
+    return Appearance(np.median(lab[cells], axis=0), int(mask.sum()), float(np.median(heights)),
+                      float(np.quantile(heights, TOP_QUANTILE)), float(cv2.HuMoments(m)[0, 0]), ratio,
+                      (m["m01"] / m["m00"], m["m10"] / m["m00"]))
+
+
+def shifted(mask: np.ndarray, rows: int, cols: int) -> np.ndarray:
+    """(H, W) bool: `mask` moved by whole cells (rows down, cols right); cells moved off the grid are dropped."""
+    out = np.zeros_like(mask)
+    h, w = mask.shape
+    if abs(rows) >= h or abs(cols) >= w:
+        return out
+    src = mask[max(-rows, 0) : h - max(rows, 0), max(-cols, 0) : w - max(cols, 0)]
+    out[max(rows, 0) : h - max(-rows, 0), max(cols, 0) : w - max(-cols, 0)] = src
+    return out
+
+
+def _check_mask(hm: Heightmap, mask: np.ndarray) -> np.ndarray:
+    mask = np.asarray(mask)
+    if mask.shape != np.asarray(hm.height).shape:
+        raise ValueError(f"mask shape {mask.shape} differs from the heightmap's {np.asarray(hm.height).shape}")
+    mask = mask.astype(bool)
+    if not mask.any():
+        raise ValueError("mask holds no cell")
+    return mask
+
+
+class TargetTracker:
+    """Follows one object through successive heightmaps of the same grid (see the module docstring)."""
+
+    def __init__(self) -> None:
+        self.reference: Appearance | None = None  # the first view's appearance
+        self.last_mask: np.ndarray | None = None  # where the target was last seen ((H, W) bool)
+        self.resolution = 0.0  # m per cell of the heightmaps tracked
+
+    def start(self, hm: Heightmap, mask: np.ndarray) -> Track:
+        """Record the target `mask` ((H, W) bool, non-empty) as seen in `hm`; returns it as a sure Track.
+        Raises ValueError for a mask of another shape than the heightmap or without a cell."""
+        mask = _check_mask(hm, mask)
+        self.reference = describe(hm, mask)
+        self.last_mask = mask.copy()
+        self.resolution = float(hm.resolution)
+        return Track(mask.copy(), 1.0, False, "first view")
+
+    def update(self, hm: Heightmap, shift_xy: tuple[float, float] | None = None) -> Track:
+        """The target in `hm`: the best-scoring segment, or an empty mask when none reaches FOUND_SCORE.
+
+        shift_xy: the target's predicted displacement (dx, dy) in `world` metres since the last heightmap (e.g. a
+        push's), None when unknown (no move predicted). Raises RuntimeError before `start`, ValueError for a
+        heightmap of another grid than the first."""
+        if self.reference is None or self.last_mask is None:
+            raise RuntimeError("TargetTracker.update before start")
+        if np.asarray(hm.height).shape != self.last_mask.shape:
+            raise ValueError(f"heightmap {np.asarray(hm.height).shape} differs from the tracked grid "
+                             f"{self.last_mask.shape}")
+        dx, dy = shift_xy if shift_xy is not None else (0.0, 0.0)
+        predicted = shifted(self.last_mask, round(dy / self.resolution), round(dx / self.resolution))
+        labels = segment_objects(hm)
+        if labels.max() == 0:
+            return Track(np.zeros_like(self.last_mask), 0.0, True, "no object in view")
+        lab = lab_image(hm.color)
+        ref = self.reference
+        cen = describe(hm, self.last_mask, lab).centroid
+        expected = (cen[0] + dy / self.resolution, cen[1] + dx / self.resolution)
+        scored = []
+        for label in range(1, int(labels.max()) + 1):
+            seg = labels == label
+            terms = self._terms(describe(hm, seg, lab), seg, predicted, expected, ref)
+            score = W_COLOUR * terms[0] + W_FORM * terms[1] + W_PLACE * max(terms[2], terms[3])
+            scored.append((score, -label, terms, seg))
+        scored.sort(key=lambda s: (s[0], s[1]), reverse=True)  # ties: the lower label (deterministic)
+        best, terms, mask = scored[0][0], scored[0][2], scored[0][3]
+        detail = "colour {:.2f} form {:.2f} overlap {:.2f} near {:.2f}".format(*terms)
+        if best < FOUND_SCORE:
+            return Track(np.zeros_like(mask), float(best), True,
+                         f"not found: best segment scores {best:.2f} < {FOUND_SCORE} ({detail})")
+        self.last_mask = mask.copy()
+        runner = scored[1][0] if len(scored) > 1 else 0.0
+        if best < SURE_SCORE:
+            return Track(mask, float(best), True, f"weak match {best:.2f} < {SURE_SCORE} ({detail})")
+        if best - runner < MARGIN:
+            return Track(mask, float(best), True, f"ambiguous: runner-up scores {runner:.2f} against {best:.2f}")
+        return Track(mask, float(best), False, f"match {best:.2f} ({detail})")
+
+    def _terms(self, seen: Appearance, seg: np.ndarray, predicted: np.ndarray, expected: tuple[float, float],
+               ref: Appearance) -> tuple[float, float, float, float]:
+        """(colour, form, overlap, nearness) terms in [0, 1] of one segment (see the module docstring)."""
+        d_lab = (seen.lab - ref.lab) * np.array([LIGHTNESS_WEIGHT, 1.0, 1.0])
+        colour = math.exp(-float(np.linalg.norm(d_lab)) / COLOUR_SCALE)
+        height = math.exp(-(abs(seen.height - ref.height) + abs(seen.top - ref.top)) / 2 / HEIGHT_SCALE_M)
+        area = min(seen.area, ref.area) / max(seen.area, ref.area)
+        shape = math.exp(-abs(seen.hu1 - ref.hu1) / HU1_SCALE - abs(seen.ratio - ref.ratio) / RATIO_SCALE)
+        union = int((seg | predicted).sum())
+        overlap = int((seg & predicted).sum()) / union if union else 0.0
+        dist_m = math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) * self.resolution
+        near = math.exp(-dist_m / DISTANCE_SCALE_M)
+        return colour, (height + area + shape) / 3.0, overlap, near

@@ -1,0 +1,144 @@
+"""How a request names its target, and the per-observation target mask that follows from it (no ROS).
+
+A request names its target in one of three ways:
+- `ColourTarget(name)`: the object painted palette colour `name`; every observation's mask is
+  pg_core.target_mask.target_mask(color, valid, name), exactly as for a colour request before;
+- `PointTarget(x, y)`: the object under the point (x, y), metres in `world` (e.g. a click on the camera image
+  projected to the table); on the first observation the mask is pg_policy.perception.segmentation.segment_at of the
+  point's cell, on later ones pg_policy.perception.target_tracker.TargetTracker keeps it on the same object;
+- `MaskTarget(mask)`: the object a (H, W) bool mask over the heightmap grid mostly covers; on the first
+  observation the mask is refined to the object segment holding most of its cells, then tracked as a point is.
+
+`TargetFollower(spec)` turns the spec plus successive heightmaps (`mask(hm, shift_xy)`) into the target masks;
+`unsure` and `why` tell the decision record whether the latest track is in doubt and why (always sure for colours).
+Masks are (H, W) bool over the heightmap cells (pg_core.heightmap: rows along y, columns along x).
+
+Raised: ValueError naming the field (`ColourTarget.name`, `PointTarget.x`, `PointTarget.y`, `PointTarget`,
+`MaskTarget.mask`) for an unknown colour, a non-finite coordinate, a point outside the heightmap, a point on bare
+table or invalid cells, an empty mask, a mask of another shape than the heightmap or one covering no object; the
+spec's own checks run at construction, the ones that need a heightmap on the first `mask` call.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pg_core.heightmap import Heightmap, world_to_pixel
+from pg_core.target_mask import hsv_window, target_mask
+from pg_policy.perception.segmentation import segment_at, segment_objects
+from pg_policy.perception.target_tracker import TargetTracker, Track
+
+
+@dataclass(frozen=True)
+class ColourTarget:
+    """The object painted palette colour `name` (pg_core.palette; case-insensitive, ``grey`` accepted)."""
+
+    name: str = "green"
+
+    def __post_init__(self) -> None:
+        try:
+            hsv_window(self.name)
+        except ValueError as exc:
+            raise ValueError(f"ColourTarget.name: {exc}") from None
+
+
+@dataclass(frozen=True)
+class PointTarget:
+    """The object under world point (x, y), metres in `world`."""
+
+    x: float
+    y: float
+
+    def __post_init__(self) -> None:
+        for name in ("x", "y"):
+            if not math.isfinite(float(getattr(self, name))):
+                raise ValueError(f"PointTarget.{name} must be a finite number of metres, got {getattr(self, name)}")
+
+
+@dataclass(frozen=True, eq=False)
+class MaskTarget:
+    """The object that (H, W) bool `mask` over the heightmap grid mostly covers."""
+
+    mask: np.ndarray = field(repr=False)
+
+    def __post_init__(self) -> None:
+        mask = np.asarray(self.mask)
+        if mask.ndim != 2:
+            raise ValueError(f"MaskTarget.mask must be an (H, W) bool array, got shape {mask.shape}")
+        if not mask.astype(bool).any():
+            raise ValueError("MaskTarget.mask is empty: it marks no cell")
+
+
+TargetSpec = ColourTarget | PointTarget | MaskTarget
+
+
+def point_cell(hm: Heightmap, target: PointTarget) -> tuple[int, int]:
+    """(row, col) of the cell under `target`; ValueError naming PointTarget.x / .y when it lies off the grid."""
+    rows, cols = np.asarray(hm.height).shape
+    row, col = world_to_pixel(target.x, target.y, hm.bounds, hm.resolution)
+    b = hm.bounds
+    if not 0 <= col < cols:
+        raise ValueError(f"PointTarget.x = {target.x:.3f} m lies outside the heightmap's x range "
+                         f"[{b[0, 0]:.3f}, {b[0, 1]:.3f}] m")
+    if not 0 <= row < rows:
+        raise ValueError(f"PointTarget.y = {target.y:.3f} m lies outside the heightmap's y range "
+                         f"[{b[1, 0]:.3f}, {b[1, 1]:.3f}] m")
+    return row, col
+
+
+def first_mask(hm: Heightmap, target: PointTarget | MaskTarget) -> np.ndarray:
+    """(H, W) bool: the object a point or mask target names in its first heightmap (see the module docstring)."""
+    labels = segment_objects(hm)
+    if isinstance(target, PointTarget):
+        row, col = point_cell(hm, target)
+        try:
+            return segment_at(hm, row, col, labels)
+        except ValueError as exc:
+            raise ValueError(f"PointTarget ({target.x:.3f}, {target.y:.3f}) m names no object: {exc}") from None
+    mask = np.asarray(target.mask).astype(bool)
+    if mask.shape != labels.shape:
+        raise ValueError(f"MaskTarget.mask shape {mask.shape} differs from the heightmap's {labels.shape}")
+    counts = np.bincount(labels[mask], minlength=int(labels.max()) + 1)
+    counts[0] = 0
+    if counts.max() == 0:
+        raise ValueError("MaskTarget.mask covers no object: all its cells are table or invalid")
+    return labels == int(np.argmax(counts))  # ties: the lower label (deterministic)
+
+
+class TargetFollower:
+    """The per-observation target mask of one request: `mask(hm, shift_xy)` for each heightmap in turn."""
+
+    def __init__(self, spec: TargetSpec) -> None:
+        if not isinstance(spec, ColourTarget | PointTarget | MaskTarget):
+            raise ValueError(f"target must be a ColourTarget, PointTarget or MaskTarget, got {type(spec).__name__}")
+        self.spec = spec
+        self.tracker = TargetTracker()
+        self.track: Track | None = None  # the latest track (None for colours and before the first observation)
+
+    def mask(self, hm: Heightmap, shift_xy: tuple[float, float] | None = None) -> np.ndarray:
+        """(H, W) bool target mask in `hm` (empty: not seen). shift_xy: the target's predicted displacement (dx, dy)
+        in `world` metres since the previous heightmap (a push's), None when unknown; ignored for colours and on
+        the first observation. Raises ValueError naming the spec's field when the first heightmap refuses it."""
+        spec = self.spec
+        if isinstance(spec, ColourTarget):
+            return target_mask(hm.color, hm.valid, spec.name)
+        if self.track is None:
+            self.track = self.tracker.start(hm, first_mask(hm, spec))
+        else:
+            self.track = self.tracker.update(hm, shift_xy)
+        return self.track.mask
+
+    @property
+    def unsure(self) -> bool:
+        """Whether the latest track is in doubt (never for colour targets or before the first observation)."""
+        return self.track is not None and self.track.unsure
+
+    @property
+    def why(self) -> str:
+        """One line for the decision record: how the latest target mask was found."""
+        if isinstance(self.spec, ColourTarget):
+            return f"colour {self.spec.name}"
+        return self.track.why if self.track is not None else "not observed yet"
