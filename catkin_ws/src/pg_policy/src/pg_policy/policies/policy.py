@@ -60,7 +60,11 @@ class PolicyOptions:
 
 
 def observed_target(obs: Any) -> np.ndarray:
-    """(H, W) bool target mask of the observation's colour heightmap for its target colour name (may be empty)."""
+    """(H, W) bool target mask of the observation (may be empty): the mask the loop tracked (`obs.mask`, a point or
+    mask request) when it has one, else the cells of the heightmap of the target's colour name."""
+    mask = getattr(obs, "mask", None)
+    if mask is not None:
+        return np.asarray(mask, dtype=bool)
     hm: Heightmap = obs.heightmap
     return target_mask(hm.color, hm.valid, obs.target)
 

@@ -184,12 +184,15 @@ def mask_of(hm: Heightmap, target: str) -> np.ndarray:
 
 @dataclass
 class PolicyObservation:
-    """What pg_policy.policies.registry act on: the heightmap, the target's colour name and, within a call, the
-    target memory (pg_policy.perception.target_memory.TargetSearch; None: no memory, e.g. /pg/infer)."""
+    """What pg_policy.policies.registry act on: the heightmap, the target's colour name, within a call the target
+    memory (pg_policy.perception.target_memory.TargetSearch; None: no memory, e.g. /pg/infer) and the target's
+    (H, W) bool mask when the loop found it otherwise than by colour (a point or a mask request, tracked:
+    pg_policy.target_loop.target_spec; None: the policy finds the target by `target`'s colour)."""
 
     heightmap: Heightmap
     target: str
     search: TargetSearch | None = None
+    mask: np.ndarray | None = None
 
 
 class TargetLoop:
