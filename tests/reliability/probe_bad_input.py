@@ -1,7 +1,8 @@
 """Bad input: the cases of bad_input_cases through /pg/grasp_target, its action, /pg/execute_primitive and
 /pg_sim/reset_scene. Invariant of every case: an answer within --refusal-bound s, success false, a message of at most
---max-message characters, nothing sent to the arms, no executed action, a refused reset leaves the scene as it was, a
-refused primitive names no arm; nodes alive at the end. ("" as target means green and must be accepted.)"""
+--max-message characters (at most bad_input_cases.ECHO_BOUND for a request holding a huge string), nothing sent to
+the arms, no executed action, a refused reset leaves the scene as it was, a refused primitive names no arm; nodes
+alive at the end. ("" as target means green and must be accepted.)"""
 
 from __future__ import annotations
 
@@ -51,8 +52,9 @@ def violations(case: Case, out: Outcome, state: str, moved: int, scene_kept: boo
         bad.append("accepted")
     if not out.message.strip():
         bad.append("empty message")
-    if len(out.message) > max_message:
-        bad.append(f"message of {len(out.message)} chars")
+    longest = max_message if case.max_message is None else min(max_message, case.max_message)
+    if len(out.message) > longest:
+        bad.append(f"message of {len(out.message)} chars (at most {longest})")
     if case.service == "execute_primitive" and out.get("arm", ""):
         bad.append(f"refusal names arm {out.get('arm')!r}")
     if moved:

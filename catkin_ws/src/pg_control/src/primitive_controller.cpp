@@ -12,9 +12,15 @@
 #include <stdexcept>
 
 #include "pg_control/urdf_chain.h"
+#include "pg_control/user_text.h"
 
 namespace pg_control {
 namespace {
+
+// tf's reason for a failed lookup quotes the requested frame again: there it is cut to kTfQuoteChars (the refusal
+// shows kEchoedChars of it already), and the whole reason to kTfReasonChars.
+constexpr std::size_t kTfQuoteChars = 16;
+constexpr std::size_t kTfReasonChars = 160;
 
 std::string fmt(const char* format, double a, double b = 0.0, double c = 0.0) {
   char buf[200];
@@ -256,8 +262,8 @@ std::string PrimitiveController::toWorld(const geometry_msgs::PointStamped& poin
     if (ros::WallTime::now() > give_up) break;
     ros::WallDuration(0.01).sleep();
   }
-  return "no transform from '" + frame + "' to '" + world_frame_ + "' within " + formatSeconds(tf_timeout_) + ": " +
-         why;
+  return "no transform from '" + cutUserText(frame) + "' to '" + world_frame_ + "' within " +
+         formatSeconds(tf_timeout_) + ": " + cutUserText(cutUserTextIn(why, frame, kTfQuoteChars), kTfReasonChars);
 }
 
 PrimitiveController::Deadline PrimitiveController::deadlineIn(double ros_seconds, const std::string& whose) const {

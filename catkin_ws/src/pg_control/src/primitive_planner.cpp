@@ -8,6 +8,7 @@
 
 #include "pg_control/cartesian_path.h"
 #include "pg_control/primitive_limits.h"
+#include "pg_control/user_text.h"
 
 namespace pg_control {
 namespace {
@@ -68,7 +69,7 @@ std::vector<std::string> PrimitivePlanner::armNames() const {
 
 const ArmKinematics& PrimitivePlanner::arm(const std::string& name) const {
   const auto it = arms_.find(name);
-  if (it == arms_.end()) throw std::invalid_argument("unknown arm '" + name + "'");
+  if (it == arms_.end()) throw std::invalid_argument("unknown arm '" + cutUserText(name) + "'");
   return *it->second;
 }
 
@@ -84,7 +85,7 @@ std::vector<std::string> PrimitivePlanner::armOrder(const std::string& arm, cons
     if (arms_.count(arm) == 0) {
       std::string known;
       for (const auto& n : armNames()) known += (known.empty() ? "" : ", ") + n;
-      throw PrimitiveRefused("unknown arm '" + arm + "' (known: " + known + "); nothing moved");
+      throw PrimitiveRefused("unknown arm '" + cutUserText(arm) + "' (known: " + known + "); nothing moved");
     }
     return {arm};
   }

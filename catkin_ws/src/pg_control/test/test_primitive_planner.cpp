@@ -218,6 +218,12 @@ TEST_F(PrimitivePlannerTest, ArmSelection) {
   EXPECT_EQ(planner_->plan(r, atHome()).arm, "left");
   r.arm = "middle";
   EXPECT_NE(refusal(r).find("unknown arm 'middle' (known: left, right)"), std::string::npos) << refusal(r);
+  r.arm = std::string(10000, 'a');  // a huge name is repeated cut, with its length
+  const std::string huge = refusal(r);
+  EXPECT_LT(huge.size(), 300U) << huge.substr(0, 300);
+  EXPECT_NE(huge.find("unknown arm '" + std::string(64, 'a') + "\xE2\x80\xA6(10000 chars)' (known: left, right)"),
+            std::string::npos)
+      << huge.substr(0, 300);
   EXPECT_EQ(planner_->armOrder("", Eigen::Vector2d(0.0, 0.2)), (std::vector<std::string>{"left", "right"}));
   EXPECT_EQ(planner_->armOrder("", Eigen::Vector2d(0.0, -0.2)), (std::vector<std::string>{"right", "left"}));
   EXPECT_EQ(planner_->armOrder("", Eigen::Vector2d(0.1, 0.0)), (std::vector<std::string>{"left", "right"}));  // tie

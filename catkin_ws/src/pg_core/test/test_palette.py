@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from pg_core.palette import NAME_SHOWN, palette_rgb, shown_name
+from pg_core.palette import palette_rgb, shown_name
 from pg_core.target_mask import hsv_window
+from pg_core.user_text import ECHOED_CHARS
 
 
 def test_names_are_case_and_spelling_insensitive():
@@ -18,11 +19,11 @@ def test_an_unknown_name_is_not_echoed_whole(lookup):
     with pytest.raises(ValueError) as err:
         lookup(huge)
     message = str(err.value)
-    assert len(message) < 300 and "1048576 characters" in message and "green" in message
+    assert len(message) < 300 and "…(1048576 chars)" in message and "green" in message
     with pytest.raises(ValueError, match="unknown .*colour 'teal'; known colours"):
         lookup("teal")  # a short name is quoted as given
 
 
 def test_shown_name_cuts_at_the_limit():
-    assert shown_name("a" * NAME_SHOWN) == repr("a" * NAME_SHOWN)
-    assert shown_name("a" * (NAME_SHOWN + 1)).endswith(f"... ({NAME_SHOWN + 1} characters)")
+    assert shown_name("a" * ECHOED_CHARS) == repr("a" * ECHOED_CHARS)
+    assert shown_name("a" * (ECHOED_CHARS + 1)) == f"{'a' * ECHOED_CHARS!r}…({ECHOED_CHARS + 1} chars)"

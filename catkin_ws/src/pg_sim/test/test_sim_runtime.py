@@ -9,6 +9,7 @@ import threading
 import numpy as np
 import pytest
 
+from pg_core.user_text import ECHOED_CHARS
 from pg_sim.robot.trajectory import JointTrajectory, TrajectoryPoint
 from pg_sim.runtime.runtime_types import ResetRequest, RuntimeConfig
 from pg_sim.runtime.sim_runtime import MAX_MESSAGE, SimRuntime
@@ -152,6 +153,13 @@ def test_refused_reset_changes_nothing(fresh, request_, field, match):
     assert fresh.world.scene.name == name and poses(fresh) == before and fresh.sim_time == t
     assert fresh.scene_resets == resets
 
+
+
+@pytest.mark.parametrize("scene", ["s" * 10_000, "packed/" + "s" * 1000])
+def test_a_huge_scene_name_is_repeated_cut_with_its_length(fresh, scene):
+    result = fresh.reset(ResetRequest(scene))
+    assert not result.success and len(result.message) < 300, result.message
+    assert f"{scene[:ECHOED_CHARS]!r}\u2026({len(scene)} chars)" in result.message, result.message
 
 def test_bad_yaml_files_are_refused(fresh, tmp_path):
     bad = tmp_path / "bad.yaml"

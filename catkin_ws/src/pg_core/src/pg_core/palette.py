@@ -11,6 +11,8 @@ rendering) and :mod:`pg_core.target_mask` derives its HSV windows from them.
 
 from __future__ import annotations
 
+from pg_core.user_text import cut
+
 RGB = tuple[int, int, int]
 
 COLORS: dict[str, RGB] = {  # the VPG palette (random scenes draw from these)
@@ -37,15 +39,9 @@ def normalize_name(name: str) -> str:
     return name.strip().lower().replace("grey", "gray")
 
 
-NAME_SHOWN = 40  # characters of an unknown colour name that error messages repeat
-
-
 def shown_name(name: object) -> str:
-    """`name` quoted for an error message, cut to NAME_SHOWN characters (a long name is not echoed whole)."""
-    text = str(name)
-    if len(text) <= NAME_SHOWN:
-        return repr(text)
-    return f"{text[:NAME_SHOWN]!r}... ({len(text)} characters)"
+    """`name` quoted for an error message, a long name cut (pg_core.user_text.cut): ``'xxxx'…(100000 chars)``."""
+    return cut(name, quoted=True)
 
 
 def palette_rgb(name: str) -> RGB:

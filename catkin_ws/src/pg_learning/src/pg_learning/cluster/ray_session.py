@@ -4,6 +4,9 @@
 (``address`` "auto" or "HOST:PORT", the head's GCS port, 6379 by default with ``ray start --head``), and shuts Ray
 down on exit (a local Ray's processes end with it; a cluster keeps running). Ray's own import is deferred to the call.
 
+A local Ray is a node of address 127.0.0.1: its GCS server, raylet, workers and agents listen on loopback only
+(``local_ray_address``). A cluster is used as its head was started (docs/CLUSTER.md).
+
 Every wait is bounded: ``ray.init`` retries an unreachable GCS for minutes, so the address is first checked with a TCP
 connection of ``CONNECT_TIMEOUT_S``; an address that does not answer raises ConnectionError naming it.
 
@@ -25,6 +28,7 @@ from pathlib import Path
 CONNECT_TIMEOUT_S = 5.0
 LOCAL_OBJECT_STORE_BYTES = 512 * 1024**2  # trial records and transitions are small (a heightmap is ~0.4 MB)
 CURRENT_CLUSTER_FILE = Path("/tmp/ray/ray_current_cluster")  # written by `ray start --head` on this machine
+LOCAL_NODE_ADDRESS = "127.0.0.1"  # the node address of a local Ray: every port it opens is on loopback
 
 
 @dataclass(frozen=True)
@@ -99,7 +103,14 @@ def ray_session(cpus: int, address: str | None = None) -> Iterator[RayInfo]:
         raise ValueError(f"a local Ray needs at least 1 CPU, got {cpus}")
     common = {"include_dashboard": False, "logging_level": logging.WARNING, "runtime_env": {"env_vars": worker_env()}}
     if address is None:
-        ray.init(num_cpus=cpus, object_store_memory=LOCAL_OBJECT_STORE_BYTES, **common)
+        with local_ray_address():
+            ray.init(num_cpus=cpus, object_store_memory=LOCAL_OBJECT_STORE_BYTES,
+                     _node_ip_address=LOCAL_NODE_ADDRESS, **common)
+        node_address = ray.util.get_node_ip_address()
+        if node_address != LOCAL_NODE_ADDRESS:  # a Ray that ignores the address: never leave it listening outside
+            ray.shutdown()
+            raise RuntimeError(f"the local Ray took node address {node_address}, not {LOCAL_NODE_ADDRESS}: it would "
+                               "listen on every interface (pg_learning.cluster.ray_session.local_ray_address)")
         where = "local"
     else:
         where = resolve_address(address)
@@ -110,6 +121,25 @@ def ray_session(cpus: int, address: str | None = None) -> Iterator[RayInfo]:
         yield _info(ray, where)
     finally:
         ray.shutdown()
+
+
+@contextmanager
+def local_ray_address() -> Iterator[None]:
+    """Within the block, a Ray node started by ``ray.init`` keeps the loopback ``_node_ip_address`` it is given.
+
+    Ray 2.60 on Linux replaces a loopback node address by the machine's routable one
+    (``ray._private.services.resolve_ip_for_localhost``) unless ``ray_constants.ENABLE_RAY_CLUSTER`` is False: Ray's
+    local-only mode, the default on macOS and Windows ($RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER), read when Ray is imported.
+    The block sets it False and restores it. A node of address 127.0.0.1 starts its GCS server, raylet, workers and
+    runtime-env agent on 127.0.0.1 (they bind the node address when it is loopback, else every interface)."""
+    from ray._private import ray_constants
+
+    saved = ray_constants.ENABLE_RAY_CLUSTER
+    ray_constants.ENABLE_RAY_CLUSTER = False
+    try:
+        yield
+    finally:
+        ray_constants.ENABLE_RAY_CLUSTER = saved
 
 
 def _info(ray, where: str) -> RayInfo:

@@ -34,6 +34,7 @@ from std_msgs.msg import Float64, UInt32
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
+from pg_core.user_text import cut
 from pg_sim.ros import ros_conversions as conv
 from pg_sim.runtime.runtime_types import RuntimeConfig
 from pg_sim.runtime.sim_runtime import SimRuntime
@@ -61,7 +62,7 @@ def scene_folders() -> tuple[str, ...]:
     if isinstance(value, str):
         value = [value] if value else []
     if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-        raise ValueError(f"~scene_folders must be a list of folder paths, got {str(value)[:80]}")
+        raise ValueError(f"~scene_folders must be a list of folder paths, got {cut(value)}")
     return tuple(value)
 
 
@@ -121,7 +122,7 @@ def main() -> int:
         result = rt.submit_reset(conv.reset_request(req)).wait(reset_timeout)
         if result is not None:
             (rospy.loginfo if result.success else rospy.logwarn)(
-                f"pg_sim: reset_scene {req.scene[:80]!r}: {result.message}")
+                f"pg_sim: reset_scene {cut(req.scene, quoted=True)}: {result.message}")
             if result.success:
                 publish_resets(result.resets)  # before the caller hears the answer
         return conv.reset_response(result, reset_timeout)

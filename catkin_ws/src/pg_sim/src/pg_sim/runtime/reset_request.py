@@ -2,19 +2,19 @@
 changes: a shipped name or YAML file, or a generated family (random, novel, mixed, ...) of N objects from a seed.
 
 Every refusal is a SceneError whose message starts with the request field it is about (``scene``, ``num_objects``,
-``seed``) and shows the offending value shortened (pg_sim.scenes.short_repr).
+``seed``) and shows the offending value cut (pg_core.user_text.cut).
 """
 
 from __future__ import annotations
 
 import pybullet as p
 
+from pg_core.user_text import cut
 from pg_sim.runtime.runtime_types import ResetRequest
 from pg_sim.scenes.objects import build_shape
 from pg_sim.scenes.scene import SceneError, SceneSpec, find_scene, load_scene
 from pg_sim.scenes.scene_folders import AllowedFolders
 from pg_sim.scenes.scene_limits import DEFAULT_LIMITS, SceneLimits
-from pg_sim.scenes.short_repr import short
 from pg_sim.world.scene_families import FAMILIES, MAX_OBJECTS, parse_generated, sample_family
 
 MAX_RANDOM_OBJECTS = MAX_OBJECTS  # largest generated scene a reset accepts
@@ -31,7 +31,7 @@ def resolve_reset(req: ResetRequest, limits: SceneLimits = DEFAULT_LIMITS,
         raise SceneError("scene: empty scene name: give a shipped scene name (e.g. packed/case01), a YAML file or "
                          "'random'")
     if len(text) > MAX_SCENE_TEXT:
-        raise SceneError(f"scene: {len(text)} characters, at most {MAX_SCENE_TEXT}: {short(text)}")
+        raise SceneError(f"scene: {len(text)} characters, at most {MAX_SCENE_TEXT}: {cut(text, quoted=True)}")
     seed, count = int(req.seed), int(req.num_objects)
     if seed < 0:
         raise SceneError(f"seed: must be a non-negative integer, got {seed}")
@@ -41,7 +41,8 @@ def resolve_reset(req: ResetRequest, limits: SceneLimits = DEFAULT_LIMITS,
     if text in FAMILIES or parsed:
         family, n = parsed if parsed else (text, count)
         if parsed and count and count != n:
-            raise SceneError(f"num_objects: scene {short(text)} names {n} objects but num_objects is {count}")
+            raise SceneError(f"num_objects: scene {cut(text, quoted=True)} names {n} objects but num_objects is "
+                             f"{count}")
         most = min(MAX_RANDOM_OBJECTS, limits.max_objects)
         if not 1 <= n <= most:
             raise SceneError(f"num_objects: a {family} scene needs num_objects in [1, {most}], got {n}")
@@ -50,7 +51,7 @@ def resolve_reset(req: ResetRequest, limits: SceneLimits = DEFAULT_LIMITS,
         try:
             path = folders.find_scene(text) if folders is not None else find_scene(text)  # messages: "scene ..."
         except OSError as e:  # e.g. a name too long for the file system
-            raise SceneError(f"scene {short(text, 160)}: {e.strerror}") from None
+            raise SceneError(f"scene {cut(text, quoted=True)}: {e.strerror}") from None
         try:
             scene = load_scene(path, limits, folders.meshes if folders is not None else None)
         except SceneError as e:
@@ -68,7 +69,7 @@ def check_buildable(scene: SceneSpec) -> None:
             try:
                 build_shape(client, spec)
             except (ValueError, OSError, RuntimeError, p.error) as e:
-                raise SceneError(f"scene {short(scene.name)}: object {short(spec.name)} ({spec.shape}) cannot be "
-                                 f"built: {e}") from None
+                raise SceneError(f"scene {cut(scene.name, quoted=True)}: object {cut(spec.name, quoted=True)} "
+                                 f"({spec.shape}) cannot be built: {e}") from None
     finally:
         p.disconnect(client)

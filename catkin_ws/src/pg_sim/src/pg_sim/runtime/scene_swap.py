@@ -12,12 +12,14 @@ from __future__ import annotations
 import numpy as np
 import pybullet as p
 
+from pg_core.user_text import cut
 from pg_sim.runtime.runtime_types import ResetResult
 from pg_sim.scenes.scene import SceneSpec
-from pg_sim.scenes.short_repr import short
 from pg_sim.world.random_scene import drop_scene
 from pg_sim.world.rest import bring_to_rest
 from pg_sim.world.world import World
+
+NAMES_LISTED = 6  # object names a message lists; the others are counted
 
 
 class SwapFailed(Exception):
@@ -40,17 +42,18 @@ def swap_scene(world: World, scene: SceneSpec, generated: bool, rest_timeout: fl
         if previous is not None:
             world.load_scene(previous, settle=False)
         why = str(e) or type(e).__name__
-        return ResetResult(False, f"reset failed while loading {short(scene.name)}, previous scene restored: {why}")
+        return ResetResult(False, f"reset failed while loading {cut(scene.name, quoted=True)}, previous scene "
+                                  f"restored: {why}")
     loaded = world.scene
     assert loaded is not None
-    return ResetResult(True, f"loaded {loaded.name} ({len(world.objects)} objects, target {loaded.target})",
+    return ResetResult(True, f"loaded {cut(loaded.name)} ({len(world.objects)} objects, target {loaded.target})",
                        loaded.name, loaded.target, len(world.objects))
 
 
 def _check_at_rest(world: World, rest_timeout: float) -> None:
     report = bring_to_rest(world, rest_timeout)
     if not report.at_rest:
-        raise SwapFailed(f"object(s) {short(list(report.moving))} still moving after {report.time:.1f} s of "
+        raise SwapFailed(f"object(s) {_names(report.moving)} still moving after {report.time:.1f} s of "
                          f"damping (rest_timeout {rest_timeout:g} s)")
 
 
@@ -62,4 +65,12 @@ def _check_target_inside(world: World) -> None:
     if not world.geometry.workspace.contains(np.asarray(pos)):
         spec = world.objects[target]
         xyz = ", ".join(f"{v:.3f}" for v in pos)
-        raise SwapFailed(f"target {short(spec.name)} ({spec.shape}) came to rest outside the workspace at ({xyz}) m")
+        raise SwapFailed(f"target {cut(spec.name, quoted=True)} ({spec.shape}) came to rest outside the workspace "
+                         f"at ({xyz}) m")
+
+
+def _names(names: list[str]) -> str:
+    """The first NAMES_LISTED names, each quoted and cut (pg_core.user_text.cut), and how many more there are."""
+    shown = ", ".join(cut(n, quoted=True) for n in names[:NAMES_LISTED])
+    more = len(names) - NAMES_LISTED
+    return shown + (f" and {more} more" if more > 0 else "")
