@@ -161,3 +161,35 @@ def test_a_forced_grasp_without_a_fitting_candidate_keeps_the_map():
     pipeline = RulePipeline([JawGraspCheck.from_arg(GEO, "jaw-walls")])
     out, level = pipeline.forced_grasp(q, ctx)
     assert level is None and out is q
+
+
+def _bowl(neighbour: bool = False) -> tuple[Heightmap, np.ndarray]:
+    """A 16 cm bowl (wider than the open jaw): a 6 mm thick, 5 cm high wall around a floor 5 mm above the table;
+    `neighbour`: a 4 cm high box just outside its +x wall."""
+    res = GEO.heightmap.resolution
+    rr, cc = np.mgrid[0:H, 0:W]
+    r = np.hypot(rr - C, cc - C) * res
+    height = np.zeros((H, W), np.float32)
+    height[r <= 0.08] = 0.005
+    height[(r > 0.074) & (r <= 0.08)] = 0.05
+    target = height > 0
+    if neighbour:
+        height[C - 10:C + 11, C + 42:C + 60] = 0.04
+    hm = Heightmap(np.full((H, W, 3), 90, np.uint8), height, np.ones((H, W), bool), res, GEO.workspace.bounds)
+    return hm, target
+
+
+def test_a_bowl_wider_than_the_jaw_passes_as_a_rim_grasp_across_its_wall_only():
+    hm, target = _bowl()
+    check = JawGraspCheck.from_arg(GEO, "jaw-walls")
+    floor_by_wall = C + 25  # 5 cm from the centre: on the floor, 2.4 cm inside the +x wall
+    assert check.passes(hm, target, ALONG_X, C, floor_by_wall)  # closing along x: one finger inside the wall
+    assert check.passes_many(hm, target, np.array([ALONG_X]), np.array([C]), np.array([floor_by_wall]))[0]
+    assert not check.passes(hm, target, ALONG_X, C, C)  # the middle of the floor: no wall within the jaw's reach
+    assert not check.passes(hm, target, ALONG_Y, C, floor_by_wall)  # closing along the wall: no pit on that line
+
+
+def test_a_rim_grasp_with_a_neighbour_in_a_fingers_sweep_is_refused():
+    hm, target = _bowl(neighbour=True)
+    check = JawGraspCheck.from_arg(GEO, "jaw-walls")
+    assert not check.passes(hm, target, ALONG_X, C, C + 25)

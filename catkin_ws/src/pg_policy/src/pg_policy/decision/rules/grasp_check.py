@@ -16,6 +16,11 @@ fingertips (the grasp z). A top-down heightmap sees the silhouette's edge at the
 so a low edge means the target narrows above the fingertips (a half cylinder or a wedge lying flat): the pads would
 meet a slope and squeeze it down and out. A test-time deviation from the paper (docs/ARCHITECTURE.md); "jaw-walls"
 is in the shipped model's rule list.
+
+Rim grasps: a candidate cell of the target that lies in a pit along the closing line (pg_core.action_geometry.rim_pit:
+a bowl's, cup's or mug's floor or inner wall next to its wall) passes without the footprint and wall tests when no
+neighbour stands in a finger's sweep: the jaw straddles the wall, one finger inside the vessel (DESIGN.md section 4),
+so a vessel wider than the open jaw can still be grasped (the footprint test alone refuses every grasp of it).
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pg_core.action_geometry import grasp_z_at
+from pg_core.action_geometry import grasp_z_at, rim_pit
 from pg_core.geometry import Geometry
 from pg_core.heightmap import TOP_K, Heightmap, pixel_to_world, rotation_yaw
 from pg_policy.decision.jaw_fit import JawFit
@@ -99,12 +104,11 @@ class JawGraspCheck(Rule):
         centre = np.array(pixel_to_world(row, col, hm.bounds, hm.resolution))
         zg = grasp_z_at(hm, row, col, self.prims, yaw=yaw)  # the z action_pose executes
         fit = self.jaw.grasp_fit(cells.xy[t], cells.xy[o], cells.h[o], centre, yaw, zg)
-        if fit is None or fit[0] < 0:
-            return False
         u = np.array([math.cos(yaw), math.sin(yaw)])
-        if abs(float((fit[1] - centre) @ u)) > self.centre_tol:
-            return False
-        return not self.walls or self.wall_height(cells.xy[t], cells.h[t], fit[1], yaw) >= zg + self.wall_tol
+        if fit is not None and fit[0] >= 0 and abs(float((fit[1] - centre) @ u)) <= self.centre_tol and (
+                not self.walls or self.wall_height(cells.xy[t], cells.h[t], fit[1], yaw) >= zg + self.wall_tol):
+            return True
+        return self.rim_grasp(hm, target, row, col, yaw, centre, zg, cells.xy[o], cells.h[o])
 
     def wall_height(self, t_xy: np.ndarray, t_h: np.ndarray, centre: np.ndarray, yaw: float) -> float:
         """The lower of the target's two wall heights (m) where the pads of a grasp at `yaw` through `centre` touch:
@@ -146,7 +150,29 @@ class JawGraspCheck(Rule):
         if walls:
             for i in np.flatnonzero(ok):
                 ok[i] = self.wall_height(t_xy, t_h, c2[i], float(yaws[i])) >= zg[i] + self.wall_tol
+        for i in np.flatnonzero(~ok):
+            ok[i] = self.rim_grasp(hm, target, int(rows[i]), int(cols[i]), float(yaws[i]), centres[i], float(zg[i]),
+                                   o_xy, o_h, clearance)
         return ok
+
+    def rim_grasp(self, hm: Heightmap, target: np.ndarray, row: int, col: int, yaw: float, centre: np.ndarray,
+                  z_grasp: float, o_xy: np.ndarray, o_h: np.ndarray, clearance: bool = True) -> bool:
+        """Whether a grasp at target cell (row, col) closing along `yaw` is a rim grasp (module docstring): the cell
+        lies in a pit of the target along the jaw line and, with `clearance`, no other object's cell ((K, 2) `o_xy`
+        m, heights `o_h` m) higher than `z_grasp` - obstacle_tol lies in the open jaw's sweep around `centre`."""
+        if not target[row, col]:
+            return False
+        pit = rim_pit(hm.height, row, col, yaw, hm.resolution, self.prims, float(hm.bounds[2, 0]), color=hm.color)
+        if pit is None:
+            return False
+        if not clearance or not len(o_xy):
+            return True
+        p = self.jaw.p
+        u = np.array([math.cos(yaw), math.sin(yaw)])
+        rel = o_xy - centre
+        reach = self.jaw.half_open + self.jaw.finger_t + p.margin
+        sweep = (np.abs(rel @ u) <= reach) & (np.abs(rel @ np.array([-u[1], u[0]])) <= self.jaw.finger_w / 2 + p.margin)
+        return not bool((sweep & (o_h > z_grasp - p.obstacle_tol)).any())
 
     def candidate_test(self, ctx: RuleContext) -> CandidateTest | None:
         if not ctx.visible or not ctx.target.any():
