@@ -22,8 +22,10 @@ from typing import Any
 
 from pg_core.seeds import MIN_EVAL_SEED
 from pg_learning.evaluation.runner import DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW, DEFAULT_SEED
+from pg_learning.evaluation.target_by import COLOUR, TARGET_BY, check_target_by
 from pg_policy.policies import options
 from pg_policy.target_loop.episode import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
+from pg_sim.world.recolour import COLOUR_MODES, UNIQUE
 from pg_sim.world.sim_mode import DEFAULT_SIM_MODE, SIM_MODES
 
 
@@ -58,6 +60,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     ev.add_argument("--jitter-yaw", type=float, default=math.degrees(DEFAULT_JITTER_YAW),
                     help=f"fixed scenes: seeded rigid rotation of the whole scene, uniform +- deg (default "
                          f"{math.degrees(DEFAULT_JITTER_YAW)})")
+    ev.add_argument("--target-by", choices=list(TARGET_BY), default=COLOUR,
+                    help="how each trial names its target (default colour): colour = its palette colour; point = "
+                         "the point at the centre of the target in the first view; mask = its mask in the first "
+                         "view (both from the simulator's ground truth, then followed by the target tracker: "
+                         "results add the tracked mask's IoU and grasps of the wrong object)")
+    ev.add_argument("--colours", choices=list(COLOUR_MODES), default=UNIQUE,
+                    help="scene colours (default unique: as built, the target's colour its own): repeated = "
+                         "random palette colours with duplicates, at least one other object in the target's "
+                         "colour; same = every object one colour (drawn from the trial seed; needs --target-by "
+                         "point or mask)")
     ev.add_argument("--sim-mode", choices=list(SIM_MODES), default=DEFAULT_SIM_MODE,
                     help=f"simulation mode (default {DEFAULT_SIM_MODE}): fast teleports the arms through free space "
                          "and gives the table its own static body; faithful steps every motion (docs/RESULTS.md "
@@ -94,6 +106,7 @@ def _run(args: argparse.Namespace) -> int:
     from pg_policy.target_loop.episode import ERROR, TARGET_LOST
 
     check_seed(args.seed, args.allow_train_seeds)
+    check_target_by(args.target_by, args.colours)
     check_device(args.device)
     if args.trials < 1:
         raise ValueError(f"--trials must be >= 1, got {args.trials}")
@@ -117,7 +130,7 @@ def _run(args: argparse.Namespace) -> int:
     rules = rules if isinstance(rules, RulePipeline) else None
     del policy
     plan = EvalPlan(tuple(scenes), args.trials, args.seed, Limits(args.max_actions, args.max_failed_grasps),
-                    args.jitter_xy, math.radians(args.jitter_yaw), args.sim_mode)
+                    args.jitter_xy, math.radians(args.jitter_yaw), args.sim_mode, args.target_by, args.colours)
     config = {
         "policy": policy_name, "policy_arg": args.policy, "models": [str(p) for p in opts.models],
         "scenes": scenes, "trials": args.trials,
@@ -131,6 +144,8 @@ def _run(args: argparse.Namespace) -> int:
         "git_commit": git_commit(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "workers": workers,
         "host_cpus": os.cpu_count(), "ray": args.ray_address,
     }
+    if args.target_by != COLOUR or args.colours != UNIQUE:  # absent by default: earlier journals stay resumable
+        config.update(target_by=args.target_by, colours=args.colours)
     jobs = plan.jobs()
     journal = TrialJournal(args.out, config, fresh=args.fresh)
     pending = journal.pending(jobs)

@@ -18,6 +18,7 @@ from pg_core.heightmap import Heightmap
 from pg_sim.scenes.colors import nearest_color_name
 from pg_sim.scenes.scene import SceneSpec, find_scene, load_scene
 from pg_sim.world.primitives import PrimitiveExecutor, PrimitiveRefused
+from pg_sim.world.recolour import UNIQUE, check_mode, recolour
 from pg_sim.world.scene_families import generate_scene, parse_generated
 from pg_sim.world.sim_mode import DEFAULT_SIM_MODE
 from pg_sim.world.world import World
@@ -51,9 +52,13 @@ class StepResult:
 
 class SimEnv:
     """One simulated cell. Not thread-safe; use one per process. Call close() or use `with`. `sim_mode`: ``fast``
-    (default) or ``faithful`` (pg_sim.world.sim_mode); raises ValueError for another."""
+    (default) or ``faithful`` (pg_sim.world.sim_mode); `colours`: the colour variant every reset paints
+    (pg_sim.world.recolour: ``unique`` (default: the scene's own colours), ``repeated``, ``same``). Raises
+    ValueError for an unknown mode or variant."""
 
-    def __init__(self, geometry: Geometry | None = None, gui: bool = False, sim_mode: str = DEFAULT_SIM_MODE) -> None:
+    def __init__(self, geometry: Geometry | None = None, gui: bool = False, sim_mode: str = DEFAULT_SIM_MODE,
+                 colours: str = UNIQUE) -> None:
+        self.colours = check_mode(colours)
         self.geometry = geometry or load()
         self.world = World(self.geometry, gui=gui, mode=sim_mode)
         self.executor = PrimitiveExecutor(self.world, remove_grasped=True)
@@ -70,7 +75,9 @@ class SimEnv:
 
     def reset(self, scene: Any, seed: int = 0) -> EnvObservation:
         """Load a scene: a SceneSpec, a shipped name/YAML path, or a generated family ``<family>-N`` dropped from
-        `seed` (random-N, dense-N, novel-N, novel-packed-N, mixed-N, train-...: pg_sim.world.scene_families)."""
+        `seed` (random-N, dense-N, novel-N, novel-packed-N, mixed-N, train-...: pg_sim.world.scene_families);
+        then paint it in the colour variant `colours` drawn from `seed` (nothing for ``unique``). `target` is the
+        target's colour name after painting."""
 
         if isinstance(scene, SceneSpec):
             self.world.load_scene(scene)
@@ -78,6 +85,8 @@ class SimEnv:
             generate_scene(self.world, str(scene), seed)
         else:
             self.world.load_scene(load_scene(find_scene(str(scene))))
+        if self.colours != UNIQUE:
+            recolour(self.world, self.colours, seed)
         self.target = self.world.scene.target if self.world.scene else "green"
         return self.observe()
 

@@ -12,6 +12,10 @@ secondary table has a "lost" column and shows them among the terminations, resul
 trial's "message"), and "lost" in a scene's metrics is the fraction of such trials.
 Trials of the catalogue families (novel-N, ...) also get rows per kind of target (pg_learning.evaluation.kinds):
 a table at the end of results.md and "by_target_kind" in results.json.
+Runs whose targets are named by a point or a mask (config "target_by", pg_learning.evaluation.target_by) add two
+columns to the table, "IoU ≥ 0.7 (% steps)" (of the steps whose target the ground truth shows) and "wrong object
+(% grasps)" (grasps that held another object than the target), and "tracking" per scene in results.json
+(pg_policy.target_loop.metrics.tracking). Runs by colour write neither.
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from typing import Any
 from pg_learning.evaluation.errors import ERROR, errors_json, reason_lines
 from pg_learning.evaluation.kinds import by_kind, kind_lines
 from pg_policy.target_loop.episode import FAILED_GRASPS, MAX_ACTIONS, TARGET_LOST
-from pg_policy.target_loop.metrics import Stat, fmt, summarize
+from pg_policy.target_loop.metrics import IOU_OK, Stat, Tracking, fmt, summarize, tracking_by_scene
 from pg_policy.target_loop.records import TrialRecord, plain
 
 METRIC_DOC = (
@@ -52,6 +56,7 @@ def git_commit(start: Path | None = None) -> str | None:
 def markdown(summary: dict[str, dict[str, Stat]], config: dict[str, Any], trials: Sequence[TrialRecord]) -> str:
     """The results.md text: title, the C / GS / MN table, the definitions, and a table of secondary figures."""
     seed, trials_n = int(config.get("seed", 0)), int(config.get("trials", 1))
+    tracked = tracking_by_scene(trials) if is_tracked(config) else None
     lines = [
         f"# Evaluation: policy `{config.get('policy')}`",
         "",
@@ -61,9 +66,15 @@ def markdown(summary: dict[str, dict[str, Stat]], config: dict[str, Any], trials
         "| Scene | C (%) | GS (%) | MN |",
         "|---|---|---|---|",
     ]
+    if tracked is not None:
+        lines[4:4] = [f"Target named by {config.get('target_by')} in the first view, then tracked; scene colours "
+                      f"{config.get('colours')}. A trial completes only when the grasped object is the target.", ""]
+        lines[-2:] = [f"| Scene | C (%) | GS (%) | MN | IoU ≥ {IOU_OK} (% steps) | wrong object (% grasps) |",
+                      "|---|---|---|---|---|---|"]
     for name, m in summary.items():
         label = f"**{name}**" if name == "all" else name
-        lines.append(f"| {label} | {fmt(m['C'], 100)} | {fmt(m['GS'], 100)} | {fmt(m['MN'], 1, 2)} |")
+        row = f"| {label} | {fmt(m['C'], 100)} | {fmt(m['GS'], 100)} | {fmt(m['MN'], 1, 2)} |"
+        lines.append(row if tracked is None else f"{row} {tracking_cells(tracked[name])} |")
     errors = reason_lines(trials)
     if errors:  # before the definitions, so that `pushgrasp eval` prints them with the table
         n_err = sum(t.termination == ERROR for t in trials)
@@ -88,6 +99,25 @@ def markdown(summary: dict[str, dict[str, Stat]], config: dict[str, Any], trials
     lines += ["", "GS per completion and actions per completed trial are how Xu et al.'s evaluate.py counts "
               "\"grasp success\" and \"motion number\".", ""]
     return "\n".join(lines + kind_lines(trials))
+
+
+def is_tracked(config: dict[str, Any]) -> bool:
+    """Whether the run named its targets by a point or a mask (a tracker followed them)."""
+    return config.get("target_by", "colour") != "colour"
+
+
+def tracking_cells(t: Tracking) -> str:
+    """The two tracking cells of a table row: "pct (k/n steps) | pct (k/n grasps)", n/a without steps or grasps."""
+    iou = "n/a" if t.iou_ok_fraction is None else f"{100 * t.iou_ok_fraction:.0f} ({t.iou_ok}/{t.steps})"
+    wrong = "n/a" if t.wrong_fraction is None else f"{100 * t.wrong_fraction:.0f} ({t.wrong_grasps}/{t.grasps})"
+    return f"{iou} | {wrong}"
+
+
+def tracking_json(t: Tracking) -> dict[str, Any]:
+    """results.json's tracking entry of a scene: the pooled counts and the two fractions."""
+    return {"steps_visible": t.steps, "steps_iou_ok": t.iou_ok, "iou_ok_fraction": t.iou_ok_fraction,
+            "iou_ok_threshold": IOU_OK, "steps_tracked": t.tracked, "steps_unsure": t.unsure, "grasps": t.grasps,
+            "wrong_grasps": t.wrong_grasps, "wrong_fraction": t.wrong_fraction}
 
 
 def counts(trials: Sequence[TrialRecord]) -> dict[str, int]:
@@ -152,8 +182,10 @@ def write_results(out: Path, trials: Sequence[TrialRecord], config: dict[str, An
         "errors": errors_json(trials),
         "by_target_kind": [{"scene": scene, "kind": kind, **{k: plain(s) for k, s in m.items()}}
                            for (scene, kind), m in by_kind(trials).items()],
-        "trials": [plain(t.to_dict()) for t in trials],
     }
+    if is_tracked(config):
+        doc["tracking"] = {name: tracking_json(t) for name, t in tracking_by_scene(trials).items()}
+    doc["trials"] = [plain(t.to_dict()) for t in trials]
     paths["json"].write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n", encoding="utf-8")
     paths["md"].write_text(markdown(summary, config, trials), encoding="utf-8")
     plot(summary, paths["png"], f"{config.get('policy')}: completion and grasp success (mean ± SE)")

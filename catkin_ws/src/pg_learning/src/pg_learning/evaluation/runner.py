@@ -17,6 +17,15 @@ repeats a push that changed nothing (same rotation, same place) is refused by th
 The policy gets each observation with the episode's target memory as ``obs.search`` (where the target was last
 seen, what covers that place while it is hidden, the futile pushes).
 
+Naming the target (`EvalPlan.target_by`, pg_learning.evaluation.target_by): by its colour (default), or by a point
+or a mask taken from the simulator's ground truth of the first view only; then every observation's target mask
+comes from the trial's tracker, goes to the episode and to the policy (``PolicyObservation.mask``), and each
+action's record keeps its IoU against that observation's ground truth and the tracker's doubt (``target``: iou,
+truth_cells, unsure, why). Completion stays by body id: only a grasp that holds the object pointed at completes a
+trial; a grasp holding another object fails (TrialRecord.wrong_grasps counts them). `EvalPlan.colours` paints the
+scenes so that colours repeat (pg_sim.world.recolour); a colour then names no single object, so ``colour`` is
+refused with such scenes.
+
 The metrics over the records, C, GS and MN (each reported as mean +- standard error over trials), are defined in
 pg_policy.target_loop.metrics; the record of a trial is pg_policy.target_loop.records.TrialRecord.
 
@@ -58,11 +67,13 @@ import numpy as np
 from pg_core.seeds import MIN_EVAL_SEED
 from pg_core.target_mask import target_mask
 from pg_learning.evaluation.errors import ERROR, mark_error
+from pg_learning.evaluation.target_by import COLOUR, TrialTarget, check_target_by
 from pg_policy.target_loop.episode import Episode, Limits, Outcome
 from pg_policy.target_loop.episode import check_eval_seed as check_seed
 from pg_policy.target_loop.records import TrialRecord, plain
 from pg_policy.target_loop.target_loop import PolicyObservation
 from pg_sim.scenes.scene import find_scene, list_scenes, load_scene
+from pg_sim.world.recolour import UNIQUE, check_mode
 from pg_sim.world.scene_families import GENERATED
 from pg_sim.world.sim_mode import DEFAULT_SIM_MODE
 
@@ -93,22 +104,26 @@ class EvalPolicy(Protocol):
 
 
 def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: Limits | None = None,
-              scene_name: str | None = None) -> TrialRecord:
+              scene_name: str | None = None, target_by: str = COLOUR) -> TrialRecord:
     """Run one trial of the protocol (module docstring) and return its record.
 
     `scene` goes to env.reset(scene, seed) unchanged (a name, a YAML path, "random-N" or a SceneSpec); `scene_name`
-    labels the record (default str(scene)). An Exception of the env or the policy ends the trial with termination
-    "error" (the actions before it kept); KeyboardInterrupt and other BaseExceptions propagate. An environment whose
-    observations carry no heightmap (test doubles) runs without the target memory: counts and limits only.
+    labels the record (default str(scene)). `target_by`: how the target is named (``colour``, ``point``, ``mask``:
+    pg_learning.evaluation.target_by; point and mask need observations with ``truth_target``). An Exception of the
+    env or the policy ends the trial with termination "error" (the actions before it kept); KeyboardInterrupt and
+    other BaseExceptions propagate. An environment whose observations carry no heightmap (test doubles) runs
+    without the target memory: counts and limits only.
     """
     t0 = time.perf_counter()
     rec = TrialRecord(scene=scene_name or str(scene), seed=seed)
     ep = Episode(limits or Limits())
+    primitives = getattr(getattr(env, "geometry", None), "primitives", None)
+    target = None if target_by == COLOUR else TrialTarget(target_by, getattr(primitives, "push_length", None))
     stage = "policy.reset"
     try:
         policy.reset(seed)
         stage = "env.reset"
-        obs = _observed(ep, env, env.reset(scene, seed))
+        obs = _observed(ep, env, env.reset(scene, seed), target)
         while not ep.over():
             stage = "policy.act"
             t_act = time.perf_counter()
@@ -123,10 +138,12 @@ def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: L
             rec.sim_s += float(result.sim_time)
             rec.actions.append({"index": len(rec.actions), "decision": plain(decision), "outcome": plain(result),
                                 "think_s": round(think_s, 4), "note": str(getattr(policy, "last_note", "")),
-                                "target": _tracking(getattr(obs, "search", None))})
+                                "target": _tracking(getattr(obs, "search", None), target)})
             if not ep.over():  # no observation after the last action: it would not be used
                 stage = "env.observe"
-                obs = _observed(ep, env, env.observe())
+                if target is not None:
+                    target.acted(decision, result)
+                obs = _observed(ep, env, env.observe(), target)
     except Exception as exc:  # DESIGN.md section 8: the trial fails with its reason, the run goes on
         mark_error(rec, exc, stage)
         ep.stop(ERROR, f"error at {stage}: {rec.error}")
@@ -146,28 +163,35 @@ def _refused(primitive: str, message: str) -> Any:
     return StepResult(primitive, False, True, False, False, None, message, 0.0)
 
 
-def _observed(ep: Episode, env: EvalEnv, obs: Any) -> Any:
+def _observed(ep: Episode, env: EvalEnv, obs: Any, target: TrialTarget | None = None) -> Any:
     """`obs` told to the episode (its target mask, and the simulator's ground truth when `env` has
     `target_outside()`), with the episode's target memory as `search` for the policy; unchanged when it has no
-    heightmap."""
+    heightmap. Without `target` the mask is the target colour's; with it, the tracked mask, which the policy gets
+    as PolicyObservation.mask."""
     hm = getattr(obs, "heightmap", None)
     if hm is None:
         return obs
     truth = getattr(env, "target_outside", None)
-    search = ep.observe(hm, target_mask(hm.color, hm.valid, obs.target), truth() if callable(truth) else None)
+    outside = truth() if callable(truth) else None
+    if target is not None:
+        mask = target.observe(hm, obs.truth_target)
+        return PolicyObservation(hm, obs.target, ep.observe(hm, mask, outside), mask=mask)
+    search = ep.observe(hm, target_mask(hm.color, hm.valid, obs.target), outside)
     if is_dataclass(obs) and "search" in {f.name for f in fields(obs)}:
         return replace(obs, search=search)
     return PolicyObservation(hm, obs.target, search)
 
 
-def _tracking(search: Any) -> dict[str, Any] | None:
+def _tracking(search: Any, target: TrialTarget | None = None) -> dict[str, Any] | None:
     """The record's view of the target memory an action was decided with: visible, cells, observations hidden in a
-    row, last seen (x, y) in `world` m; None without a memory."""
+    row, last seen (x, y) in `world` m; with a tracked target also its IoU against the ground truth, the ground
+    truth's cells, and whether the tracker was unsure and why (TrialTarget.view); None without a memory."""
     if search is None:
         return None
     seen = search.last_seen
     return {"visible": bool(search.visible), "cells": int(search.cells), "hidden_for": int(search.hidden_for),
-            "last_seen": None if seen is None else [round(seen.x, 4), round(seen.y, 4)]}
+            "last_seen": None if seen is None else [round(seen.x, 4), round(seen.y, 4)],
+            **(target.view if target is not None else {})}
 
 
 def expand_scenes(items: Sequence[str]) -> list[str]:
@@ -228,8 +252,10 @@ def trial_scene(name: str, seed: int, jitter_xy: float, jitter_yaw: float) -> An
 
 @dataclass(frozen=True)
 class EvalPlan:
-    """The trials to run: scenes x trials, seeds seed + i, limits, pose jitter of fixed scenes, and the simulation
-    mode of their environments (pg_sim.world.sim_mode: fast or faithful)."""
+    """The trials to run: scenes x trials, seeds seed + i, limits, pose jitter of fixed scenes, the simulation
+    mode of their environments (pg_sim.world.sim_mode: fast or faithful), how trials name the target
+    (`target_by`: colour, point, mask) and the scenes' colour variant (`colours`: unique, repeated, same;
+    pg_sim.world.recolour). ValueError for an unknown one, or colour targets where colours repeat."""
 
     scenes: tuple[str, ...]
     trials: int
@@ -238,6 +264,12 @@ class EvalPlan:
     jitter_xy: float = DEFAULT_JITTER_XY
     jitter_yaw: float = DEFAULT_JITTER_YAW
     sim_mode: str = DEFAULT_SIM_MODE
+    target_by: str = COLOUR
+    colours: str = UNIQUE
+
+    def __post_init__(self) -> None:
+        check_mode(self.colours)
+        check_target_by(self.target_by, self.colours)
 
     def jobs(self) -> list[tuple[str, int]]:
         """(scene, seed) of every trial, scene-major."""
@@ -285,7 +317,7 @@ def run_fresh(make_env: Callable[[], EvalEnv], policy: EvalPolicy, name: str, se
         rec.wall_s = time.perf_counter() - t0
         return rec
     try:
-        return run_trial(env, policy, scene, seed, plan.limits, scene_name=name)
+        return run_trial(env, policy, scene, seed, plan.limits, scene_name=name, target_by=plan.target_by)
     finally:
         close = getattr(env, "close", None)
         if close is not None:
@@ -335,10 +367,10 @@ def worker_init(policy: str, opts: Any, threads: int, blobs: tuple[tuple[str, by
 
 
 def sim_env_factory(plan: EvalPlan) -> Callable[[], Any]:
-    """A maker of fresh simulated environments in the plan's simulation mode."""
+    """A maker of fresh simulated environments in the plan's simulation mode and colour variant."""
     from pg_learning.environment.sim_env import SimEnv
 
-    return partial(SimEnv, sim_mode=plan.sim_mode)
+    return partial(SimEnv, sim_mode=plan.sim_mode, colours=plan.colours)
 
 
 def worker_trial(index: int, name: str, seed: int, plan: EvalPlan) -> tuple[int, TrialRecord]:

@@ -12,9 +12,18 @@ the model's own), ~heightmap_timeout (5.0 wall s),
 on and published on /pg/dry_run/decisions), ~scene_resets_topic ("/pg_sim/scene_resets": std_msgs/UInt32, latched,
 the simulator's count of scene resets; a change during a call ends it with "the scene was reset during the call";
 on a real cell nothing publishes it and the subscriber never fires).
+Targets (pg_policy.ros.target_io): ~tf_timeout (0.5 wall s per tf2 lookup of a point's or a mask's frame),
+~camera_info_topic ("/camera/color/camera_info": the size, intrinsics and frame masks must match), ~mask_max_skew
+(2.0 s of ROS time between a mask's stamp and the heightmap it is projected with), ~click_to_grasp (false: true
+subscribes to ~clicked_point_topic, "/clicked_point", geometry_msgs/PointStamped as rviz's "Publish Point" tool
+sends it; each click runs a grasp_target call on that point, refused clicks, "busy" included, are logged with the
+reason).
 A missing or corrupt model file, or a limit parameter out of range, ends the node at start-up with the reason (exit
-status 1). A request with a negative max_actions / max_failed_grasps or a NaN, infinite or negative timeout is
-refused with a message naming the field; nothing moves. The answer's message says why a call ended (the episode
+status 1). A request with a negative max_actions / max_failed_grasps or a NaN, infinite or negative timeout, or a
+target it cannot take (two forms set, a point off the workspace, on bare table or in a frame tf2 cannot reach, a
+mask empty, all zero, of another encoding or size, or stamped too far from the heightmap) is refused with a message
+naming the field; nothing moves. A target name repeated in an answer or a log line is cut
+to pg_core.user_text.ECHOED_CHARS characters. The answer's message says why a call ended (the episode
 protocol's reason, pg_policy.target_loop.episode): "target 'green' grasped", "target lost: <why>" (it left the
 workspace), "gave up after 5 failed grasps", "action budget of 30 spent", "cancelled", ...
 Threads: every policy computation runs on the TargetLoop's one worker thread, whichever service or action thread
@@ -28,19 +37,24 @@ import threading
 
 import actionlib
 import rospy
+from geometry_msgs.msg import PointStamped
 from pg_msgs.msg import Decision as DecisionMsg
 from pg_msgs.msg import GraspTargetAction, GraspTargetFeedback, GraspTargetResult
-from pg_msgs.srv import GraspTarget, GraspTargetResponse, Infer, InferResponse
+from pg_msgs.srv import GraspTarget, GraspTargetRequest, GraspTargetResponse, Infer, InferResponse
 from sensor_msgs.msg import Image
 from std_msgs.msg import UInt32
 from visualization_msgs.msg import MarkerArray
 
 from pg_conversions.heightmap_msg import image_msg
+from pg_core.geometry import load as load_geometry
+from pg_core.user_text import cut
 from pg_policy.policies import options
 from pg_policy.policies.policy import PolicyOptions
 from pg_policy.policies.registry import make_policy
 from pg_policy.ros import convert
 from pg_policy.ros.loop_io import ServiceExecutor, TopicHeightmapSource
+from pg_policy.ros.target_io import TargetRequests
+from pg_policy.ros.target_request import first_view_field, refusal
 from pg_policy.target_loop.episode import CANCELLED, DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
 from pg_policy.target_loop.target_loop import (
     DEFAULT_TIMEOUT_S,
@@ -49,8 +63,11 @@ from pg_policy.target_loop.target_loop import (
     NoHeightmap,
     StampedHeightmap,
     TargetLoop,
+    TargetRefused,
+    as_spec,
     mask_of,
     request_limits,
+    target_label,
 )
 
 BUSY = "busy: another grasp_target call is running"
@@ -65,6 +82,11 @@ class PolicyNode:
                                  float(rospy.get_param("~call_timeout", DEFAULT_TIMEOUT_S)))
         self.dry_run = bool(rospy.get_param("~dry_run", False))
         self.source = TopicHeightmapSource("/pg/heightmap")
+        self.targets = TargetRequests(self.source, load_geometry().workspace.bounds,
+                                      str(rospy.get_param("~camera_info_topic", "/camera/color/camera_info")),
+                                      float(rospy.get_param("~tf_timeout", 0.5)),
+                                      float(rospy.get_param("~mask_max_skew", 2.0)),
+                                      float(rospy.get_param("~heightmap_timeout", 5.0)))
         executor = ServiceExecutor(str(rospy.get_param("~execute_service", "/pg/execute_primitive")),
                                    float(rospy.get_param("~primitive_timeout", 60.0)))
         self.pub_decisions = rospy.Publisher("/pg/dry_run/decisions" if self.dry_run else "/pg/decisions",
@@ -85,6 +107,11 @@ class PolicyNode:
         self.action_ = actionlib.ActionServer("/pg/grasp_target_action", GraspTargetAction, self.on_action_goal,
                                               self.on_action_cancel, auto_start=False)
         self.action_.start()
+        self.sub_clicks_ = None
+        if bool(rospy.get_param("~click_to_grasp", False)):
+            topic = str(rospy.get_param("~clicked_point_topic", "/clicked_point"))
+            self.sub_clicks_ = rospy.Subscriber(topic, PointStamped, self._on_click, queue_size=1)
+            rospy.loginfo("click to grasp: a point on %s starts a grasp_target call", topic)
         rospy.loginfo("policy node ready: policy %s%s", self.policy_name, " (dry run)" if self.dry_run else "")
 
     def _on_scene_resets(self, msg: UInt32) -> None:
@@ -96,7 +123,7 @@ class PolicyNode:
             self.feedback_(rec)
 
     def _visualise(self, rec, shm: StampedHeightmap) -> None:
-        target = mask_of(shm.heightmap, rec.target)
+        target = rec.target_mask if rec.target_mask is not None else mask_of(shm.heightmap, rec.target)
         stamp = rospy.Time.from_sec(shm.stamp)
         header = DecisionMsg().header
         header.frame_id, header.stamp = convert.WORLD, stamp
@@ -107,34 +134,46 @@ class PolicyNode:
     def on_infer(self, req) -> InferResponse:
         if not self.busy.acquire(blocking=False):
             return InferResponse(success=False, message="busy: a grasp_target call is running")
+        form = "target"
         try:
-            rec = self.loop.infer(req.target)
+            form, target = self.targets.target(req)
+            rec = self.loop.infer(target)
             return InferResponse(success=True, message="ok", decision=convert.decision_msg(rec, rospy.Time.now()))
-        except (LoopError, ValueError) as exc:
+        except TargetRefused as exc:
+            return InferResponse(success=False, message=refusal(first_view_field(form, str(exc))))
+        except ValueError as exc:
+            return InferResponse(success=False, message=refusal(str(exc)))
+        except LoopError as exc:
             return InferResponse(success=False, message=str(exc))
         finally:
             self.busy.release()
 
     def _call(self, req, cancelled=None, feedback=None) -> dict:
         """The fields of a GraspTarget answer (service response or action result) for one call; `req` has target,
-        max_actions, max_failed_grasps and timeout; feedback(rec) is called after every executed action."""
+        point, mask, max_actions, max_failed_grasps and timeout; feedback(rec) is called after every executed
+        action."""
         if self.dry_run:
             return {"success": False, "message": "dry run: this node executes nothing"}
         if not self.busy.acquire(blocking=False):
             return {"success": False, "message": BUSY}
         self.feedback_ = feedback
+        form, label = "target", cut(req.target or "green")
         try:
             try:
                 limits = request_limits(req.max_actions, req.max_failed_grasps, req.timeout, self.limits)
+                form, target = self.targets.target(req)
+                label = cut(target_label(as_spec(target)))
             except ValueError as exc:
-                return {"success": False, "message": f"invalid request, nothing moved: {exc}"}
-            res = self.loop.run(req.target, limits, cancelled)
+                return {"success": False, "message": refusal(str(exc))}
+            res = self.loop.run(target, limits, cancelled)
+        except TargetRefused as exc:
+            return {"success": False, "message": refusal(first_view_field(form, str(exc)))}
         except (LoopError, ValueError) as exc:
             return {"success": False, "message": str(exc)}
         finally:
             self.feedback_ = None
             self.busy.release()
-        rospy.loginfo("grasp_target %s: %s [%s] (%d grasps, %d pushes, %.1f s)", req.target or "green",
+        rospy.loginfo("grasp_target %s: %s [%s] (%d grasps, %d pushes, %.1f s)", label,
                       res.message, res.termination, res.grasps, res.pushes, res.duration)
         stamp = rospy.Time.now()
         return {"termination": res.termination, "success": res.success, "grasps": res.grasps, "pushes": res.pushes,
@@ -145,6 +184,21 @@ class PolicyNode:
         answer = self._call(req)
         answer.pop("termination", None)  # the message says it in words ("target lost: ...", "cancelled", ...)
         return GraspTargetResponse(**answer)
+
+    def _on_click(self, msg: PointStamped) -> None:
+        """A click (rviz "Publish Point"): a grasp_target call on that point in its own thread; "busy" while one
+        runs."""
+        if self.dry_run or self.busy.locked():
+            rospy.logwarn("click at (%.3f, %.3f, %.3f) in '%s' refused: %s", msg.point.x, msg.point.y, msg.point.z,
+                          cut(msg.header.frame_id), "dry run" if self.dry_run else BUSY)
+            return
+        threading.Thread(target=self._run_click, args=(msg,), daemon=True).start()
+
+    def _run_click(self, msg: PointStamped) -> None:
+        answer = self._call(GraspTargetRequest(point=msg))
+        log = rospy.loginfo if answer.get("success") else rospy.logwarn
+        log("click at (%.3f, %.3f, %.3f) in '%s': %s", msg.point.x, msg.point.y, msg.point.z,
+            cut(msg.header.frame_id), answer.get("message", ""))
 
     def on_action_goal(self, handle) -> None:
         """Accept a goal unless busy (rejected: "busy"), then run it in its own thread; cancel between actions."""

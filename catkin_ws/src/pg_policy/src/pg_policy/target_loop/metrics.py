@@ -11,6 +11,11 @@ Secondary figures kept in the records: ``gs_completed`` (g_i averaged over compl
 per clearance" of Xu et al.'s evaluate.py), ``actions_completed`` (all actions per completed trial: the "motion
 number" as Xu et al.'s evaluate.py counts it), ``refused`` (refused actions per trial), ``errors`` and ``lost`` (the
 fractions of trials that ended in an error and whose target left the workspace).
+Target tracking (episodes whose target is named by a point or a mask, followed by a tracker; `tracking`): over
+the steps whose action record's ``target`` holds ``iou`` (the tracked mask against the simulator's ground truth of
+that observation) and whose ground truth shows the target (``truth_cells`` >= MIN_VISIBLE_CELLS), the fraction
+with IoU >= IOU_OK; over the executed grasps, the fraction that held another object (TrialRecord.wrong_grasps).
+Both are pooled counts (steps, grasps), not means over trials.
 Standard error of n values v_1..v_n with mean m: se = sqrt(sum_i (v_i - m)^2 / (n - 1)) / sqrt(n) (sample standard
 deviation over sqrt(n)); undefined (None) for n < 2.
 """
@@ -23,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pg_core.target_mask import MIN_VISIBLE_CELLS
 from pg_policy.target_loop.episode import ERROR, TARGET_LOST
 from pg_policy.target_loop.records import TrialRecord
 
@@ -70,6 +76,61 @@ def summarize(trials: Sequence[TrialRecord]) -> dict[str, dict[str, Stat]]:
     out = {name: scene_metrics(ts) for name, ts in scenes.items()}
     if len(scenes) > 1:
         out["all"] = scene_metrics(trials)
+    return out
+
+
+IOU_OK = 0.7  # a tracked mask with at least this IoU against the ground truth follows the right object
+
+
+@dataclass(frozen=True)
+class Tracking:
+    """Pooled tracking counts of some trials (module docstring): `steps` with the target visible in ground truth
+    and an IoU recorded, `iou_ok` of them with IoU >= IOU_OK, `unsure` steps the tracker doubted (of all steps with
+    an IoU recorded, `tracked`), executed `grasps` and the `wrong_grasps` among them."""
+
+    steps: int
+    iou_ok: int
+    tracked: int
+    unsure: int
+    grasps: int
+    wrong_grasps: int
+
+    @property
+    def iou_ok_fraction(self) -> float | None:
+        """iou_ok / steps; None without such steps."""
+        return self.iou_ok / self.steps if self.steps else None
+
+    @property
+    def wrong_fraction(self) -> float | None:
+        """wrong_grasps / grasps; None without grasps."""
+        return self.wrong_grasps / self.grasps if self.grasps else None
+
+
+def tracking(trials: Sequence[TrialRecord]) -> Tracking:
+    """The pooled tracking counts of `trials` (module docstring)."""
+    steps = iou_ok = tracked = unsure = 0
+    for t in trials:
+        for a in t.actions:
+            view = a.get("target")
+            if not isinstance(view, dict) or "iou" not in view:
+                continue
+            tracked += 1
+            unsure += bool(view.get("unsure"))
+            if int(view.get("truth_cells") or 0) >= MIN_VISIBLE_CELLS and view["iou"] is not None:
+                steps += 1
+                iou_ok += float(view["iou"]) >= IOU_OK
+    return Tracking(steps, iou_ok, tracked, unsure, sum(t.grasps for t in trials),
+                    sum(t.wrong_grasps for t in trials))
+
+
+def tracking_by_scene(trials: Sequence[TrialRecord]) -> dict[str, Tracking]:
+    """`tracking` per scene in first-seen scene order, plus "all" when there are several scenes (as summarize)."""
+    scenes: dict[str, list[TrialRecord]] = {}
+    for t in trials:
+        scenes.setdefault(t.scene, []).append(t)
+    out = {name: tracking(ts) for name, ts in scenes.items()}
+    if len(scenes) > 1:
+        out["all"] = tracking(trials)
     return out
 
 

@@ -1,7 +1,9 @@
 """The record of one episode of the protocol (pg_policy.target_loop.episode) and its JSON form.
 
 A TrialRecord holds what an episode did: scene name, seed, counts, why it ended, and every action (decision +
-outcome) in order. `pushgrasp eval` writes one per trial (pg_learning.evaluation: results.json, trials.jsonl), the
+outcome, and the target as the episode saw it: ``target``, see pg_learning.evaluation.runner) in order;
+``wrong_grasps`` counts the grasps that held another object than the target, from the outcomes.
+`pushgrasp eval` writes one per trial (pg_learning.evaluation: results.json, trials.jsonl), the
 bag replay builds one per recorded grasp_target call (pg_policy.ros.bag_replay); the metrics over records are
 pg_policy.target_loop.metrics.
 
@@ -49,8 +51,22 @@ class TrialRecord:
         """target grasps / grasp attempts of this trial, None without attempts."""
         return self.target_grasps / self.grasps if self.grasps else None
 
+    @property
+    def wrong_grasps(self) -> int:
+        """Executed grasps that held an object other than the target (ground truth of the simulator: the outcome's
+        ``grasped_color`` names what was held and ``target_grasped`` is false); 0 for records whose outcomes do not
+        say what was held. Each is also a failed grasp."""
+        return sum(1 for a in self.actions if _wrong_grasp(a.get("outcome")))
+
     def to_dict(self) -> dict[str, Any]:
         return {**asdict(self), "n_actions": self.n_actions, "grasp_success": self.grasp_success}
+
+
+def _wrong_grasp(outcome: Any) -> bool:
+    """Whether one action's outcome (StepResult as a dict) is an executed grasp that held another object."""
+    if not isinstance(outcome, dict) or outcome.get("primitive") != "grasp" or outcome.get("refused"):
+        return False
+    return outcome.get("grasped_color") is not None and not outcome.get("target_grasped")
 
 
 def record_from_dict(d: dict[str, Any]) -> TrialRecord:

@@ -9,6 +9,13 @@ budget is spent, the call is cancelled, or the scene was replaced under the call
 and outcomes come from: a HeightmapSource (the /pg/heightmap topic in the node) and a PrimitiveExecutor (the
 /pg/execute_primitive service), so sim and real robot run the same loop.
 
+Targets: a colour name (str) or a pg_policy.target_loop.target_spec spec (ColourTarget, PointTarget, MaskTarget).
+A colour goes the colour path (the mask of every heightmap is the palette colour's cells, the policy finds the
+target by its name). A point or a mask gets a TargetFollower per call: its mask of each heightmap goes to the
+episode and to the policy (`PolicyObservation.mask`); a track in doubt is said in the record's note ("target track
+unsure: <why>"). A point or mask the first heightmap refuses (off the grid, bare table, covering no object) raises
+TargetRefused, before anything moves, its message naming the spec's field.
+
 A target not visible on the first heightmap of a call is refused before anything moves (LoopError). Once the call
 has acted, a hidden target is searched for where it was last seen (pg_policy.perception.target_memory; the policy
 gets the memory as `obs.search`), and a push that changed nothing is never repeated at the same place and rotation
@@ -54,6 +61,7 @@ from pg_policy.target_loop.episode import (
     Limits,
     Outcome,
 )
+from pg_policy.target_loop.target_spec import ColourTarget, MaskTarget, PointTarget, TargetFollower, TargetSpec
 from pg_policy.target_loop.worker import PinnedThread
 
 TARGET_GONE_FRACTION = 0.2
@@ -68,6 +76,11 @@ class LoopError(RuntimeError):
 
 class NoHeightmap(LoopError, TimeoutError):
     """No heightmap newer than the requested stamp arrived within the wait."""
+
+
+class TargetRefused(LoopError):
+    """A point or mask target that the call's first heightmap refuses (message: the spec's ValueError, naming
+    PointTarget / MaskTarget); raised before anything moves."""
 
 
 class SceneReset(LoopError):
@@ -153,6 +166,8 @@ class ActionRecord:
     execution: Execution | None = None
     target_grasped: bool = False
     note: str = ""  # why the policy took the decision (its last_note), e.g. "target hidden: searching where ..."
+    # (H, W) bool target mask the decision was taken on, for point and mask targets (None: colour, `target`'s cells)
+    target_mask: np.ndarray | None = field(default=None, repr=False)
 
 
 @dataclass
@@ -180,6 +195,27 @@ def check_target(name: str) -> str:
 
 def mask_of(hm: Heightmap, target: str) -> np.ndarray:
     return target_mask(hm.color, hm.valid, target)
+
+
+def as_spec(target: str | TargetSpec) -> TargetSpec:
+    """The spec of a call's target: a colour name ("" = "green") becomes a ColourTarget of the normalised name;
+    LoopError for an unknown colour (listing the known ones) or another type."""
+    if isinstance(target, str):
+        return ColourTarget(check_target(target))
+    if isinstance(target, ColourTarget):
+        return ColourTarget(check_target(target.name))
+    if isinstance(target, PointTarget | MaskTarget):
+        return target
+    raise LoopError(f"target must be a colour name or a target spec, got {type(target).__name__}")
+
+
+def target_label(spec: TargetSpec) -> str:
+    """The target's name in records and messages: the colour name, "point (x, y)" (world m) or "mask"."""
+    if isinstance(spec, ColourTarget):
+        return spec.name
+    if isinstance(spec, PointTarget):
+        return f"point ({spec.x:.3f}, {spec.y:.3f})"
+    return "mask"
 
 
 @dataclass
@@ -229,22 +265,55 @@ class TargetLoop:
         self.scene_epoch = scene_epoch or (lambda: None)
         self.worker = PinnedThread()
         self._after: StampedHeightmap | None = None  # per call: the heightmap after the last action
+        self._follower: TargetFollower | None = None  # per call: point / mask targets (None: colour)
+        self._seen: tuple[StampedHeightmap, np.ndarray] | None = None  # per call: the follower's latest mask
         self._epoch: object = None  # per call: the scene token the call belongs to
 
     @property
     def threshold(self) -> float:
         return float(getattr(self.policy, "threshold", math.nan))
 
-    def decide(self, target: str, shm: StampedHeightmap, index: int = 0, episode: int = 0) -> ActionRecord:
-        """One decision on a heightmap with no target memory; LoopError when the target is not visible there."""
-        return self.worker.call(self._decide, target, shm, index, episode)
+    def decide(self, target: str | TargetSpec, shm: StampedHeightmap, index: int = 0,
+               episode: int = 0) -> ActionRecord:
+        """One decision on a heightmap with no target memory; LoopError when the target is not visible there
+        (TargetRefused for a point or mask it refuses)."""
+        return self.worker.call(self._decide_on, as_spec(target), shm, index, episode)
+
+    def _decide_on(self, spec: TargetSpec, shm: StampedHeightmap, index: int, episode: int) -> ActionRecord:
+        self._start_target(spec)
+        rec = self._decide(target_label(spec), shm, index, episode)
+        assert rec is not None  # without an episode a decision is always taken (or LoopError raised)
+        return rec
+
+    def _start_target(self, spec: TargetSpec) -> None:
+        """Per call: a fresh TargetFollower for a point or mask target (colour: none, the colour path)."""
+        self._follower = None if isinstance(spec, ColourTarget) else TargetFollower(spec)
+        self._seen = None
+
+    def _target_mask(self, target: str, shm: StampedHeightmap) -> np.ndarray:
+        """(H, W) bool target mask of `shm`: the colour's cells, or the follower's mask (asked once per heightmap:
+        the grasp check and the next decision share the heightmap after an action)."""
+        if self._follower is None:
+            return mask_of(shm.heightmap, target)
+        if self._seen is not None and self._seen[0] is shm:
+            return self._seen[1]
+        first = self._follower.track is None
+        try:
+            mask = np.asarray(self._follower.mask(shm.heightmap), dtype=bool)
+        except ValueError as exc:
+            if not first:
+                raise
+            raise TargetRefused(str(exc)) from None
+        self._seen = (shm, mask)
+        return mask
 
     def _decide(self, target: str, shm: StampedHeightmap, index: int = 0, episode: int = 0,
                 ep: Episode | None = None) -> ActionRecord | None:
         """The decision on `shm`. Without an episode (or before its first action) LoopError when the target is not
         visible; within one, the heightmap goes to the episode's target memory first, and None means the episode
-        ended on it (the target left the workspace)."""
-        mask = mask_of(shm.heightmap, target)
+        ended on it (the target left the workspace). `target`: the colour name, or the label of a followed point
+        or mask target (self._follower)."""
+        mask = self._target_mask(target, shm)
         pixels = int(mask.sum())
         if (ep is None or ep.actions == 0) and pixels < MIN_VISIBLE_CELLS:
             raise LoopError(f"target '{target}' not visible: {pixels} matching heightmap cells "
@@ -254,44 +323,49 @@ class TargetLoop:
             search = ep.observe(shm.heightmap, mask)
             if ep.over():
                 return None
-        decision = self.policy.act(PolicyObservation(shm.heightmap, target, search))
+        follower = self._follower
+        obs = PolicyObservation(shm.heightmap, target, search, mask if follower is not None else None)
+        decision = self.policy.act(obs)
         self.last_q = self.policy.q_maps()
+        note = str(getattr(self.policy, "last_note", ""))
+        if follower is not None and follower.unsure:
+            note = "; ".join(n for n in (f"target track unsure: {follower.why}", note) if n)
         rec = ActionRecord(episode, index, target, self.policy_name, decision, shm.stamp, self.clock(), pixels,
-                           self.threshold, note=str(getattr(self.policy, "last_note", "")))
+                           self.threshold, note=note, target_mask=mask if follower is not None else None)
         if self.on_decision:
             self.on_decision(rec, shm)
         return rec
 
-    def infer(self, target: str) -> ActionRecord:
+    def infer(self, target: str | TargetSpec) -> ActionRecord:
         """The decision on the first heightmap newer than now (nothing executed)."""
-        target = check_target(target)
-        return self.infer_on(target, self.source.wait_after(self.clock(), self.heightmap_timeout_s))
+        spec = as_spec(target)
+        return self.infer_on(spec, self.source.wait_after(self.clock(), self.heightmap_timeout_s))
 
-    def infer_on(self, target: str, shm: StampedHeightmap) -> ActionRecord:
+    def infer_on(self, target: str | TargetSpec, shm: StampedHeightmap) -> ActionRecord:
         """The decision on `shm` with no memory of earlier decisions (policy reset; nothing executed)."""
-        return self.worker.call(self._infer_on, target, shm)
+        return self.worker.call(self._infer_on, as_spec(target), shm)
 
-    def _infer_on(self, target: str, shm: StampedHeightmap) -> ActionRecord:
+    def _infer_on(self, spec: TargetSpec, shm: StampedHeightmap) -> ActionRecord:
         self.policy.reset(0)
-        rec = self._decide(target, shm)
-        assert rec is not None  # without an episode a decision is always taken (or LoopError raised)
-        return rec
+        return self._decide_on(spec, shm, 0, 0)
 
-    def run(self, target: str, limits: LoopLimits | None = None,
+    def run(self, target: str | TargetSpec, limits: LoopLimits | None = None,
             cancelled: Callable[[], bool] | None = None) -> LoopResult:
-        """One call: raises LoopError before anything moves (unknown colour, no heightmap, target not visible);
+        """One call: raises LoopError before anything moves (unknown colour, no heightmap, target not visible,
+        TargetRefused for a point or mask the first heightmap refuses);
         later problems end the call with success False and the reason in the result's message (and `termination`,
         pg_policy.target_loop.episode). `cancelled` is asked between actions (a running primitive always finishes);
         True ends the call with message "cancelled". A scene reset (see the class) ends it with RESET_MESSAGE; a
         target that left the workspace with "target lost: <why>"."""
-        return self.worker.call(self._run, target, limits or LoopLimits(), cancelled)
+        return self.worker.call(self._run, as_spec(target), limits or LoopLimits(), cancelled)
 
     def _episode(self, target: str, limits: LoopLimits) -> Episode:
         return Episode(Limits(limits.max_actions, limits.max_failed_grasps), target=target,
                        max_refused_in_row=MAX_FAILED_PRIMITIVES)
 
-    def _run(self, target: str, limits: LoopLimits, cancelled: Callable[[], bool] | None) -> LoopResult:
-        target = check_target(target)
+    def _run(self, spec: TargetSpec, limits: LoopLimits, cancelled: Callable[[], bool] | None) -> LoopResult:
+        target = target_label(spec)
+        self._start_target(spec)
         self._after, self._epoch = None, self.scene_epoch()
         t0, wall0 = self.clock(), time.monotonic()
         shm = self.source.wait_after(t0, self.heightmap_timeout_s)
@@ -311,6 +385,7 @@ class TargetLoop:
                     # call started), so the call decides anew on the scene now in front of the robot
                     self._epoch = self.scene_epoch()
                     self.policy.reset(self.episode)
+                    self._start_target(spec)
                     ep = self._episode(target, limits)
                     rec = self._decide(target, self.source.wait_after(self.clock(), self.heightmap_timeout_s), 0,
                                        self.episode, ep)
@@ -365,7 +440,7 @@ class TargetLoop:
         res.actions.append(rec)
         try:
             if ex.success and rec.decision.primitive == "grasp" and ex.grasped:
-                after = mask_of(self._fresh(rec).heightmap, rec.target).sum()
+                after = self._target_mask(rec.target, self._fresh(rec)).sum()
                 rec.target_grasped = bool(after < max(MIN_VISIBLE_CELLS, TARGET_GONE_FRACTION * rec.target_pixels))
         finally:
             ep.record(rec.decision, Outcome(refused=not ex.success, target_grasped=rec.target_grasped,
