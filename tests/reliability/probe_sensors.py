@@ -5,7 +5,10 @@ until /pg/infer succeeds again is measured.
 Faults: projector-frozen and projector-dead (no heightmaps), sim-frozen (camera, /joint_states and /clock stop; a
 /pg/execute_primitive call is made too), controller-frozen (the primitive service does not answer).
 Invariants per fault: the call answers within --error-bound s with success false and a message naming the cause; no
-hang; the stack recovers within --recovery-bound s; the other nodes stay alive."""
+hang; the stack recovers within --recovery-bound s; the other nodes stay alive. controller-frozen also: the
+grasp_target call (budget CONTROLLER_BUDGET_S) answers within its budget plus BUDGET_SLACK_S with "the controller did
+not answer", and after SIGCONT the primitive request it abandoned does not run (no arm command, the controller logs
+"abandoned by the caller")."""
 
 from __future__ import annotations
 
@@ -27,6 +30,9 @@ CAUSE = {"projector-frozen": ("heightmap",), "projector-dead": ("heightmap",),
          "sim-frozen": ("heightmap", "joint_states", "clock", "camera"),
          "controller-frozen": ("controller", "execute_primitive", "primitive")}
 BASELINE = "household/case11"
+CONTROLLER_BUDGET_S = 10.0  # wall s: the `timeout` of the grasp_target call made while the controller is frozen
+BUDGET_SLACK_S = 2.0  # wall s a call may answer after its budget
+REFUSAL = "abandoned by the caller"  # the controller's refusal of a request whose deadline passed (its log line)
 
 
 def _restart_projector(ctx: Context) -> subprocess.Popen:
@@ -44,6 +50,19 @@ def _wait_gone(pid: int, wait_s: float) -> bool:
             return True
         time.sleep(0.1)
     return False
+
+
+def _logged(ctx: Context, text: str, wait_s: float = 5.0) -> bool:
+    """Whether `text` appears in the launch log or rosout's log of this run within wait_s (rosout writes every node's
+    log lines; the launch log holds the nodes' screen output)."""
+    deadline = time.monotonic() + wait_s
+    while True:
+        paths = sorted((ctx.workdir / "ros_log").glob("**/rosout*.log"))
+        if any(text in p.read_text(errors="replace") for p in paths) or text in ctx.stack.log_tail(10**7):
+            return True
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(0.5)
 
 
 def _recover(ctx: Context, svc: Services, fault: str) -> float | None:
@@ -121,7 +140,7 @@ def _one(ctx: Context, svc: Services, watch: MotionWatch, fault: str, res: Probe
     time.sleep(0.5)
     calls: list[tuple[str, Outcome]] = []
     try:
-        timeout = 10.0 if fault == "controller-frozen" else 60.0
+        timeout = CONTROLLER_BUDGET_S if fault == "controller-frozen" else 60.0
         calls.append(("grasp_target", svc.grasp_target(opts.error_bound + opts.answer_wait, "green",
                                                        timeout=timeout)))
         if fault == "sim-frozen":
@@ -134,10 +153,18 @@ def _one(ctx: Context, svc: Services, watch: MotionWatch, fault: str, res: Probe
     recoveries[fault] = recovery
     if fault == "controller-frozen":  # what the controller still does once it runs again
         late = watch.settle(quiet_s=3.0, wait_s=opts.recovery_bound) - commands
+        refused = _logged(ctx, REFUSAL)
         res.figures["arm commands sent after the controller resumed"] = late
-        if late:
-            res.notes.append(f"controller-frozen: {late} arm command(s) after SIGCONT: the primitive request that the "
-                             "policy had given up on ran once the controller resumed")
+        res.figures["controller-frozen: grasp_target answer (s)"] = round(calls[0][1].seconds, 2)
+        res.check("controller-frozen: the abandoned primitive does not run after SIGCONT", late == 0 and refused,
+                  f"{late} arm command(s) after SIGCONT; controller log {'has' if refused else 'lacks'} "
+                  f"'{REFUSAL}'")
+        out = calls[0][1]
+        res.check(f"controller-frozen: grasp_target answers within its budget + {BUDGET_SLACK_S:.0f} s",
+                  out.answered and out.seconds <= CONTROLLER_BUDGET_S + BUDGET_SLACK_S
+                  and "did not answer" in out.message,
+                  f"{'answered' if out.answered else 'NO ANSWER'} in {out.seconds:.1f} s (budget "
+                  f"{CONTROLLER_BUDGET_S:.0f} s): {out.message[:120]}")
     for name, out in calls:
         table.rows.append([fault, name, out.answered, out.success, round(out.seconds, 2), out.message[:100],
                            None if recovery is None else round(recovery, 2)])

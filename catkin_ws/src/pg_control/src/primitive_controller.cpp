@@ -151,6 +151,7 @@ void PrimitiveController::execute(const pg_msgs::ExecutePrimitive::Request& req,
     checkFinite("position.point.y", req.position.point.y);
     checkFinite("position.point.z", req.position.point.z);
     checkFinite("yaw", req.yaw);
+    checkDeadline(req.deadline, ros::WallTime::now().toSec());  // taken up after its caller gave up: never start
   } catch (const PrimitiveRefused& e) {
     res.message = e.what();
     return;
@@ -202,6 +203,12 @@ void PrimitiveController::execute(const pg_msgs::ExecutePrimitive::Request& req,
     }
   }
 
+  try {  // again just before the first command: the tf wait and the planning took time
+    checkDeadline(req.deadline, ros::WallTime::now().toSec());
+  } catch (const PrimitiveRefused& e) {
+    res.message = e.what();
+    return;
+  }
   const Deadline limit = deadlineIn(timeout, "the primitive");
   res.arm = plan.arm;
   std::string error;

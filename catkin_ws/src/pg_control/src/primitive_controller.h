@@ -2,7 +2,9 @@
 // plan on the arm trajectory controllers and grippers, watching /joint_states. Every wait is bounded by ROS time
 // (the request's timeout; works with /use_sim_time and a sim faster than real time) and by wall-clock guards (dead
 // /joint_states, stopped /clock, max_wall_time), so a call never hangs. A request is checked (primitive_limits.h)
-// and planned before anything is commanded; the answer names an arm only once that arm has been commanded.
+// and planned before anything is commanded; the answer names an arm only once that arm has been commanded. A
+// request whose wall-clock `deadline` has passed when it is taken up or when its first command is due (its caller
+// gave up, e.g. while this process was stopped) is refused: an abandoned primitive never runs later.
 #ifndef PG_CONTROL_PRIMITIVE_CONTROLLER_H
 #define PG_CONTROL_PRIMITIVE_CONTROLLER_H
 

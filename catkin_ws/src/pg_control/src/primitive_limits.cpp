@@ -56,6 +56,18 @@ void checkFinite(const std::string& field, double value) {
   }
 }
 
+void checkDeadline(double deadline, double now) {
+  if (deadline == 0.0) return;
+  if (!std::isfinite(deadline) || deadline < 0.0) {
+    throw PrimitiveRefused("deadline = " + formatNumber(deadline) +
+                           " s is refused: give 0 (none) or wall-clock seconds since the Unix epoch; nothing moved");
+  }
+  if (deadline <= now) {
+    throw PrimitiveRefused("abandoned by the caller: deadline passed " + formatSeconds(now - deadline) +
+                           " ago; nothing moved");
+  }
+}
+
 void checkSecondsParameter(const std::string& name, double value, bool zero_allowed) {
   const bool low = zero_allowed ? value < 0.0 : value <= 0.0;
   if (!std::isfinite(value) || low || value > kMaxSecondsParameter) {

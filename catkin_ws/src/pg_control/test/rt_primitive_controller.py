@@ -9,18 +9,23 @@ velocity limit; out-of-workspace points and unknown frames are refused with noth
 one runs answers "busy"; a silent /joint_states gives a clear error within the timeout and the node keeps serving;
 NaN, negative, infinite and too large timeouts and non-finite positions or yaws are refused with the field named and
 no arm; a move that overruns says which limit ended it (the primitive's timeout or its planned duration plus
-goal_time_tolerance) and with what numbers.
+goal_time_tolerance) and with what numbers; a request whose deadline has passed, also one that waited in the stopped
+(SIGSTOP) controller until after it, is refused with nothing published.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import re
+import signal
 import threading
 import time
 import unittest
+import xmlrpc.client
 
 import numpy as np
+import rosgraph
 import rospy
 import rostest
 import tf2_ros
@@ -377,6 +382,39 @@ class TestPrimitiveController(unittest.TestCase):
         finally:
             self.fake.set_slowdown(1.0)
         res, _ = self.call(request(ExecutePrimitiveRequest.PUSH, 0.0, 0.1, 0.02))
+        self.assertTrue(res.success, res.message)
+
+    def test_10_passed_deadline_is_refused(self) -> None:
+        before = self.fake.received()
+        req = request(ExecutePrimitiveRequest.PUSH, 0.0, 0.1, 0.02, arm="right")
+        req.deadline = time.time() - 3.0
+        res, _ = self.call(req)
+        self.assertFalse(res.success)
+        self.assertEqual(res.arm, "")
+        self.assertRegex(res.message, r"^abandoned by the caller: deadline passed [0-9.]+ s ago; nothing moved$")
+        req.deadline = math.nan
+        res, _ = self.call(req)
+        self.assertIn("deadline = nan s is refused", res.message)
+        self.assert_nothing_published(before)
+        # a controller stopped (SIGSTOP) until after the caller's deadline refuses the request once it runs again
+        uri = rosgraph.Master("/rt_primitive_controller").lookupNode("/primitive_controller")
+        pid = int(xmlrpc.client.ServerProxy(uri).getPid("/rt_primitive_controller")[2])
+        os.kill(pid, signal.SIGSTOP)
+        try:
+            req.deadline = time.time() + 1.0
+            late = Call(self.proxy, req)
+            late.start()
+            time.sleep(2.0)
+        finally:
+            os.kill(pid, signal.SIGCONT)
+        late.join(CALL_TIMEOUT_S)
+        self.assertFalse(late.is_alive())
+        self.assertIsNone(late.error)
+        self.assertFalse(late.result.success)
+        self.assertIn("abandoned by the caller: deadline passed", late.result.message)
+        self.assert_nothing_published(before)
+        req.deadline = time.time() + CALL_TIMEOUT_S  # a deadline still ahead: the primitive runs
+        res, _ = self.call(req)
         self.assertTrue(res.success, res.message)
 
 

@@ -81,6 +81,43 @@ TEST(CheckFinite, NamesTheFieldAndValue) {
   }
 }
 
+// The refusal message of checkDeadline(deadline, now), or "" when accepted.
+std::string deadlineRefusal(double deadline, double now) {
+  try {
+    checkDeadline(deadline, now);
+  } catch (const PrimitiveRefused& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(CheckDeadline, ZeroMeansNone) {
+  EXPECT_EQ(deadlineRefusal(0.0, 1.7e9), "");
+  EXPECT_EQ(deadlineRefusal(-0.0, 1.7e9), "");
+}
+
+TEST(CheckDeadline, AcceptsAFutureDeadline) {
+  EXPECT_EQ(deadlineRefusal(1.7e9 + 0.001, 1.7e9), "");
+  EXPECT_EQ(deadlineRefusal(1.7e9 + 600.0, 1.7e9), "");
+}
+
+TEST(CheckDeadline, RefusesAPassedDeadline) {
+  // A request its caller abandoned (e.g. one that waited in a frozen controller) never starts.
+  const std::string why = deadlineRefusal(1.7e9, 1.7e9 + 3.2);
+  EXPECT_TRUE(contains(why, "abandoned by the caller: deadline passed 3.20 s ago")) << why;
+  EXPECT_TRUE(contains(why, "nothing moved")) << why;
+  const std::string at = deadlineRefusal(1.7e9, 1.7e9);  // the deadline instant itself is passed
+  EXPECT_TRUE(contains(at, "abandoned by the caller: deadline passed 0.00 s ago")) << at;
+}
+
+TEST(CheckDeadline, RefusesNanNegativeAndInfinite) {
+  for (const double deadline : {kNan, kInf, -kInf, -1.0}) {
+    const std::string why = deadlineRefusal(deadline, 1.7e9);
+    EXPECT_TRUE(contains(why, "deadline = ")) << deadline << ": " << why;
+    EXPECT_TRUE(contains(why, "give 0 (none) or wall-clock seconds since the Unix epoch; nothing moved")) << why;
+  }
+}
+
 TEST(CheckParameters, RefusesUnusableTimes) {
   EXPECT_NO_THROW(checkSecondsParameter("tf_timeout", 0.5));
   EXPECT_NO_THROW(checkSecondsParameter("goal_time_tolerance", 0.0, true));

@@ -1,7 +1,8 @@
 // Limits of one /pg/execute_primitive call, ROS-free: which request numbers are accepted (the timeout's range, finite
-// position and yaw), which time parameters the controller starts with, and how durations and limits are worded in
-// its answers. Every refusal here is a PrimitiveRefused whose what() names the field and its value and ends with
-// "nothing moved"; the controller checks the request with these functions before it plans or commands anything.
+// position and yaw, a deadline not yet passed), which time parameters the controller starts with, and how durations
+// and limits are worded in its answers. Every refusal here is a PrimitiveRefused whose what() names the field and its
+// value and ends with "nothing moved"; the controller checks the request with these functions before it plans or
+// commands anything.
 #ifndef PG_CONTROL_PRIMITIVE_LIMITS_H
 #define PG_CONTROL_PRIMITIVE_LIMITS_H
 
@@ -29,6 +30,13 @@ double resolveTimeout(double timeout, const TimeoutLimits& limits);
 
 // Throws PrimitiveRefused when `value` is NaN or infinite: "<field> = <value> is not a finite number; nothing moved".
 void checkFinite(const std::string& field, double value);
+
+// A request's `deadline`: wall-clock seconds since the Unix epoch after which its caller no longer waits for the
+// answer; 0 = none. Called with the same clock's `now` (s) when the request is taken up and again just before its
+// first command. Throws PrimitiveRefused for NaN, negative or infinite values ("deadline = nan s is refused: give 0
+// (none) or wall-clock seconds since the Unix epoch; nothing moved") and when the deadline is at or before `now`
+// ("abandoned by the caller: deadline passed 3.20 s ago; nothing moved").
+void checkDeadline(double deadline, double now);
 
 // Throws std::invalid_argument naming the parameter `name` unless `value` (s) is finite, at most
 // kMaxSecondsParameter, and > 0 (>= 0 when `zero_allowed`).
