@@ -13,6 +13,14 @@ every segment against that record; each term lies in [0, 1]:
   push predicts), and the nearness exp(-d / DISTANCE_SCALE_M), d the distance between the segment's centroid and
   the predicted one.
 
+Two guards keep a track from jumping. A segment whose centroid lies farther than GATE_M plus the predicted
+displacement from the predicted centroid is not the target (a push carries an object push_length at most; a failed
+grasp moves it a few centimetres). A segment more than MERGE_RATIO times the target's first-view area that overlaps
+the predicted mask (the target merged with a touching neighbour of its colour) is cut to the cells within
+CROP_CELLS of the predicted mask, and the track is unsure. A predicted displacement may be wrong (the push missed
+the target), so every segment is also scored against the place the target was last seen, unmoved, and keeps the
+better of the two.
+
 The score is the weighted mean (W_COLOUR, W_FORM, W_PLACE); the best segment is the target when its score
 reaches FOUND_SCORE, and the track is unsure when the score stays under SURE_SCORE or the runner-up comes within
 MARGIN of it. Objects of one colour are told apart by form and place alone. The appearance stays that of
@@ -45,6 +53,9 @@ FOUND_SCORE = 0.45  # a best segment scoring below this is not the target: the t
 SURE_SCORE = 0.65  # a found target scoring below this is unsure
 MARGIN = 0.08  # a runner-up scoring within this of the best makes the track unsure
 TOP_QUANTILE = 0.9  # the target's "top" height is this quantile of its cells' heights
+GATE_M = 0.12  # a segment's centroid this far (m) beyond the predicted displacement from the predicted one: not it
+MERGE_RATIO = 1.8  # a segment over this many times the first view's area that overlaps the prediction is merged
+CROP_CELLS = 3  # a merged segment is cut to its cells within this many cells of the predicted mask
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,28 +148,46 @@ class TargetTracker:
             raise ValueError(f"heightmap {np.asarray(hm.height).shape} differs from the tracked grid "
                              f"{self.last_mask.shape}")
         dx, dy = shift_xy if shift_xy is not None else (0.0, 0.0)
-        predicted = shifted(self.last_mask, round(dy / self.resolution), round(dx / self.resolution))
         labels = segment_objects(hm)
         if labels.max() == 0:
             return Track(np.zeros_like(self.last_mask), 0.0, True, "no object in view")
         lab = lab_image(hm.color)
         ref = self.reference
         cen = describe(hm, self.last_mask, lab).centroid
-        expected = (cen[0] + dy / self.resolution, cen[1] + dx / self.resolution)
+        gate = (GATE_M + math.hypot(dx, dy)) / self.resolution  # cells
+        # where the target should be: moved as predicted, and (a prediction can be wrong) where it was
+        places = [(shifted(self.last_mask, round(dy / self.resolution), round(dx / self.resolution)),
+                   (cen[0] + dy / self.resolution, cen[1] + dx / self.resolution))]
+        if dx or dy:
+            places.append((self.last_mask, cen))
+        grow = np.ones((2 * CROP_CELLS + 1,) * 2, np.uint8)
         scored = []
         for label in range(1, int(labels.max()) + 1):
-            seg = labels == label
-            terms = self._terms(describe(hm, seg, lab), seg, predicted, expected, ref)
-            score = W_COLOUR * terms[0] + W_FORM * terms[1] + W_PLACE * max(terms[2], terms[3])
-            scored.append((score, -label, terms, seg))
-        scored.sort(key=lambda s: (s[0], s[1]), reverse=True)  # ties: the lower label (deterministic)
-        best, terms, mask = scored[0][0], scored[0][2], scored[0][3]
+            whole = labels == label
+            for predicted, expected in places:
+                merged = int(whole.sum()) > MERGE_RATIO * ref.area and bool((whole & predicted).any())
+                seg = whole & (cv2.dilate(predicted.astype(np.uint8), grow) > 0) if merged else whole
+                seen = describe(hm, seg, lab)
+                if math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) > gate:
+                    continue
+                terms = self._terms(seen, seg, predicted, expected, ref)
+                score = W_COLOUR * terms[0] + W_FORM * terms[1] + W_PLACE * max(terms[2], terms[3])
+                scored.append((score, -label, terms, seg, merged))
+        scored = sorted(scored, key=lambda s: (s[0], s[1]), reverse=True)
+        scored = [s for k, s in enumerate(scored) if k == 0 or s[1] != scored[0][1]]  # runner-up: another segment
+        if not scored:
+            return Track(np.zeros_like(self.last_mask), 0.0, True,
+                         f"not found: no object within {GATE_M + math.hypot(dx, dy):.2f} m of where it was expected")
+        best, terms, mask, merged = scored[0][0], scored[0][2], scored[0][3], scored[0][4]
         detail = "colour {:.2f} form {:.2f} overlap {:.2f} near {:.2f}".format(*terms)
         if best < FOUND_SCORE:
             return Track(np.zeros_like(mask), float(best), True,
                          f"not found: best segment scores {best:.2f} < {FOUND_SCORE} ({detail})")
         self.last_mask = mask.copy()
         runner = scored[1][0] if len(scored) > 1 else 0.0
+        if merged:
+            return Track(mask, float(best), True,
+                         f"merged with a touching object: cut to the predicted place ({detail})")
         if best < SURE_SCORE:
             return Track(mask, float(best), True, f"weak match {best:.2f} < {SURE_SCORE} ({detail})")
         if best - runner < MARGIN:
