@@ -337,6 +337,55 @@ TEST(HeightmapProjector, BgrColourAndNoColour) {
   for (std::uint8_t c : none.color) ASSERT_EQ(c, 0);
 }
 
+TEST(HeightmapProjector, HolesAreInvalidCells) {
+  // The frame of pg_sim/test/test_sensor_model.py (test_depth_hole_becomes_invalid_cells), checked there against the
+  // numpy reference: a 64 x 48 px depth image of a table 0.5 m below the camera (f = 100 px: 5 mm per pixel, 2 x 2 px
+  // per 1 cm cell) with two 10 x 10 px holes, one of depth 0 and one NaN. Every cell under a hole is invalid (height
+  // 0, colour black), every other cell valid: a hole is never table.
+  ProjectorConfig c;
+  c.bounds = {-0.16, 0.16, -0.12, 0.12, -0.01, 0.3};
+  c.resolution = 0.01;
+  HeightmapProjector projector(c);
+  const int width = 64, height = 48;
+  const CameraIntrinsics k{100.0, 100.0, 31.5, 23.5};
+  std::vector<float> metres(static_cast<std::size_t>(width) * height, 0.5f);
+  std::vector<std::uint16_t> mm(metres.size(), 500);
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const std::size_t i = static_cast<std::size_t>(v) * width + u;
+      const bool zero = v >= 10 && v < 20 && u >= 20 && u < 30, nan = v >= 30 && v < 40 && u >= 40 && u < 50;
+      metres[i] = zero ? 0.0f : nan ? std::numeric_limits<float>::quiet_NaN() : metres[i];
+      mm[i] = zero || nan ? 0 : mm[i];
+    }
+  }
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();  // looking straight down: x_w = x, y_w = -y, z_w = 0.5 - z
+  pose.linear() = Eigen::Vector3d(1.0, -1.0, -1.0).asDiagonal();
+  pose.translation() = Eigen::Vector3d(0.0, 0.0, 0.5);
+  const auto bytes = [](const void* data) { return static_cast<const std::uint8_t*>(data); };
+  const DepthImageView as_metres{bytes(metres.data()), width, height, width * 4, DepthEncoding::kFloat32Metres};
+  const DepthImageView as_mm{bytes(mm.data()), width, height, width * 2, DepthEncoding::kUint16Millimetres};
+  HeightmapGrid from_metres, from_mm;
+  projector.projectDepth(as_metres, {}, k, pose, from_metres);
+  projector.projectDepth(as_mm, {}, k, pose, from_mm);
+  HeightmapGrid from_cloud = projector.project(HeightmapProjector::depthToCloud(as_metres, {}, k), pose);
+  for (const HeightmapGrid* g : {&from_metres, &from_mm, &from_cloud}) {
+    ASSERT_EQ(g->rows, 24);
+    ASSERT_EQ(g->cols, 32);
+    for (int row = 0; row < g->rows; ++row) {
+      for (int col = 0; col < g->cols; ++col) {
+        // hole 0: pixels u 20..29, v 10..19 -> cols 10..14, rows 14..18; hole NaN: u 40..49, v 30..39 -> cols
+        // 20..24, rows 4..8 (x = (u - cx) z / f, y = -(v - cy) z / f)
+        const bool hole = (row >= 14 && row <= 18 && col >= 10 && col <= 14) ||
+                          (row >= 4 && row <= 8 && col >= 20 && col <= 24);
+        const std::size_t i = at(*g, row, col);
+        EXPECT_EQ(g->valid[i], hole ? 0 : 255) << row << " " << col;
+        EXPECT_FLOAT_EQ(g->height[i], hole ? 0.0f : 0.01f) << row << " " << col;
+      }
+    }
+    EXPECT_EQ(countValid(*g), 24 * 32 - 2 * 25);
+  }
+}
+
 TEST(HeightmapProjector, RejectsBadImages) {
   HeightmapProjector projector(smallConfig());
   const SyntheticFrame f;

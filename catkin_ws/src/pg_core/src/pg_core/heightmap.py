@@ -3,7 +3,9 @@ top-down workspace heightmap.
 
 Convention (VPG/ravens, DESIGN.md section 3): col = floor((x - xmin)/res), row = floor((y - ymin)/res);
 each cell keeps its HIGHEST point (explicit per-cell max), height = z - zmin clipped at >= 0, empty cells are 0 and
-marked invalid; the colour of a cell is the colour of its highest point. Cell (row, col) stands for its centre
+marked invalid; the colour of a cell is the colour of its highest point. Validity: a cell is valid when at least one
+finite point falls in it; a depth hole (no return: depth 0 or NaN, a NaN point) is no point, so a cell that receives
+none is invalid (height 0, colour black), never table: `valid` tells them apart. Cell (row, col) stands for its centre
 (`pixel_to_world`, `cell_centres`, `cell_centre_axes`; back: `world_to_pixel`). Rotation index r of R means gripper
 yaw r * 2 pi / R about world +z (`rotation_yaw`, `rotation_step`). Cells higher than OBJECT_HEIGHT_M hold an object.
 A re-rank of a Q map examines its best TOP_K cells.

@@ -10,6 +10,8 @@
 // Each cell keeps its HIGHEST point (explicit running max in double precision, no sorting); its colour is
 // the colour of that point. Ties (equal heights): the LATER point in input order wins, as numpy's fancy assignment
 // `color[flat[winner]] = rgb[winner]` does in the reference. Empty cells: height 0, colour (0, 0, 0), valid 0.
+// A depth hole (0 or non-finite depth, a NaN point) is no point: a cell that receives no valid point is invalid,
+// never table, whatever the reason (occlusion, no return, a sensor's invalid pixels along depth edges).
 #ifndef PG_POLICY_HEIGHTMAP_PROJECTOR_H
 #define PG_POLICY_HEIGHTMAP_PROJECTOR_H
 

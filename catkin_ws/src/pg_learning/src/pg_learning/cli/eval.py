@@ -26,7 +26,16 @@ from pg_learning.evaluation.target_by import COLOUR, TARGET_BY, check_target_by
 from pg_policy.policies import options
 from pg_policy.target_loop.episode import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
 from pg_sim.world.recolour import COLOUR_MODES, UNIQUE
+from pg_sim.world.sensor_model import PERFECT
 from pg_sim.world.sim_mode import DEFAULT_SIM_MODE, SIM_MODES
+
+
+def add_sensor_argument(parser: argparse.ArgumentParser) -> None:
+    """--sensor NAME_OR_YAML: the simulated camera's sensor profile (pg_sim.world.sensor_model)."""
+    parser.add_argument("--sensor", default=PERFECT,
+                        help=f"sensor profile of the simulated camera (default {PERFECT}: exact depth, the "
+                             "configured pose): d435, d415 (depth noise, holes, colour gains, pose error; "
+                             "pg_sim/config/sensors) or a YAML file of the same keys")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -74,6 +83,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                     help=f"simulation mode (default {DEFAULT_SIM_MODE}): fast teleports the arms through free space "
                          "and gives the table its own static body; faithful steps every motion (docs/RESULTS.md "
                          "compares them on the protocol)")
+    add_sensor_argument(ev)
     options.add_arguments(ev)  # the declared policy options: --grasp-threshold, --rules, --grasp-check, ...
     ev.add_argument("--device", default="cpu", help="torch device of learned policies (default cpu)")
     ev.add_argument("--workers", type=int, default=None,
@@ -104,10 +114,12 @@ def _run(args: argparse.Namespace) -> int:
     from pg_policy.policies.policy import PolicyOptions
     from pg_policy.policies.registry import make_policy
     from pg_policy.target_loop.episode import ERROR, TARGET_LOST
+    from pg_sim.world.sensor_model import load_profile
 
     check_seed(args.seed, args.allow_train_seeds)
     check_target_by(args.target_by, args.colours)
     check_device(args.device)
+    load_profile(args.sensor)  # ValueError naming the known profiles before any simulation
     if args.trials < 1:
         raise ValueError(f"--trials must be >= 1, got {args.trials}")
     workers = args.workers if args.workers is not None else (0 if args.ray_address else 1)
@@ -130,7 +142,8 @@ def _run(args: argparse.Namespace) -> int:
     rules = rules if isinstance(rules, RulePipeline) else None
     del policy
     plan = EvalPlan(tuple(scenes), args.trials, args.seed, Limits(args.max_actions, args.max_failed_grasps),
-                    args.jitter_xy, math.radians(args.jitter_yaw), args.sim_mode, args.target_by, args.colours)
+                    args.jitter_xy, math.radians(args.jitter_yaw), args.sim_mode, args.target_by, args.colours,
+                    args.sensor)
     config = {
         "policy": policy_name, "policy_arg": args.policy, "models": [str(p) for p in opts.models],
         "scenes": scenes, "trials": args.trials,
@@ -146,6 +159,8 @@ def _run(args: argparse.Namespace) -> int:
     }
     if args.target_by != COLOUR or args.colours != UNIQUE:  # absent by default: earlier journals stay resumable
         config.update(target_by=args.target_by, colours=args.colours)
+    if args.sensor != PERFECT:  # absent by default, as above
+        config.update(sensor=args.sensor)
     jobs = plan.jobs()
     journal = TrialJournal(args.out, config, fresh=args.fresh)
     pending = journal.pending(jobs)

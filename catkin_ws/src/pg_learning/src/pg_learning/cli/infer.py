@@ -14,6 +14,8 @@ from pg_policy.policies import options
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    from pg_learning.cli.eval import add_sensor_argument
+
     p = sub.add_parser("infer", help="render a policy's Q maps and decision over a scene to PNG (no action)")
     p.add_argument("--policy", "--model", dest="model", default="lite",
                    help="shipped model folder name, model directory (grasp.pt + push.pt), a grasp .pt file, or a "
@@ -32,6 +34,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--steps", type=int, default=0,
                    help="execute up to N decisions in the simulator (stops once the target is grasped), one PNG "
                         "each plus the scene after; default 0: draw the first decision, execute nothing")
+    add_sensor_argument(p)
     options.add_arguments(p)  # the declared policy options; the grasp panel shows Q_g after the filter rules
     p.set_defaults(run=_run)
 
@@ -106,7 +109,7 @@ def _run(args: argparse.Namespace) -> int:
         from pg_learning.evaluation.runner import DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW, trial_scene
 
         scene = trial_scene(args.scene, args.seed, DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW)
-    with SimEnv() as env:
+    with SimEnv(sensor=args.sensor) as env:  # ValueError naming the profiles for an unknown one
         obs = env.reset(scene, seed=args.seed)
         if args.target:
             obs = type(obs)(obs.heightmap, args.target, obs.truth_target, obs.sim_time)

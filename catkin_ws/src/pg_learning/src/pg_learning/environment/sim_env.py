@@ -20,6 +20,7 @@ from pg_sim.scenes.scene import SceneSpec, find_scene, load_scene
 from pg_sim.world.primitives import PrimitiveExecutor, PrimitiveRefused
 from pg_sim.world.recolour import UNIQUE, check_mode, recolour
 from pg_sim.world.scene_families import generate_scene, parse_generated
+from pg_sim.world.sensor_model import PERFECT
 from pg_sim.world.sim_mode import DEFAULT_SIM_MODE
 from pg_sim.world.world import World
 
@@ -53,14 +54,15 @@ class StepResult:
 class SimEnv:
     """One simulated cell. Not thread-safe; use one per process. Call close() or use `with`. `sim_mode`: ``fast``
     (default) or ``faithful`` (pg_sim.world.sim_mode); `colours`: the colour variant every reset paints
-    (pg_sim.world.recolour: ``unique`` (default: the scene's own colours), ``repeated``, ``same``). Raises
-    ValueError for an unknown mode or variant."""
+    (pg_sim.world.recolour: ``unique`` (default: the scene's own colours), ``repeated``, ``same``); `sensor`: the
+    camera's sensor profile (pg_sim.world.sensor_model: ``perfect`` (default), ``d435``, ``d415`` or a YAML path),
+    re-seeded with the seed of every reset. Raises ValueError for an unknown mode, variant or profile."""
 
     def __init__(self, geometry: Geometry | None = None, gui: bool = False, sim_mode: str = DEFAULT_SIM_MODE,
-                 colours: str = UNIQUE) -> None:
+                 colours: str = UNIQUE, sensor: str = PERFECT) -> None:
         self.colours = check_mode(colours)
         self.geometry = geometry or load()
-        self.world = World(self.geometry, gui=gui, mode=sim_mode)
+        self.world = World(self.geometry, gui=gui, mode=sim_mode, sensor=sensor)
         self.executor = PrimitiveExecutor(self.world, remove_grasped=True)
         self.target = "green"
 
@@ -77,8 +79,9 @@ class SimEnv:
         """Load a scene: a SceneSpec, a shipped name/YAML path, or a generated family ``<family>-N`` dropped from
         `seed` (random-N, dense-N, novel-N, novel-packed-N, mixed-N, train-...: pg_sim.world.scene_families);
         then paint it in the colour variant `colours` drawn from `seed` (nothing for ``unique``). `target` is the
-        target's colour name after painting."""
+        target's colour name after painting. The camera's sensor model restarts from `seed`."""
 
+        self.world.camera.seed_sensor(seed)
         if isinstance(scene, SceneSpec):
             self.world.load_scene(scene)
         elif parse_generated(str(scene)):

@@ -75,6 +75,7 @@ from pg_policy.target_loop.target_loop import PolicyObservation
 from pg_sim.scenes.scene import find_scene, list_scenes, load_scene
 from pg_sim.world.recolour import UNIQUE, check_mode
 from pg_sim.world.scene_families import GENERATED
+from pg_sim.world.sensor_model import PERFECT
 from pg_sim.world.sim_mode import DEFAULT_SIM_MODE
 
 __all__ = ["MIN_EVAL_SEED", "Limits", "check_seed"]  # re-exported: the protocol's seed convention and limits
@@ -254,8 +255,9 @@ def trial_scene(name: str, seed: int, jitter_xy: float, jitter_yaw: float) -> An
 class EvalPlan:
     """The trials to run: scenes x trials, seeds seed + i, limits, pose jitter of fixed scenes, the simulation
     mode of their environments (pg_sim.world.sim_mode: fast or faithful), how trials name the target
-    (`target_by`: colour, point, mask) and the scenes' colour variant (`colours`: unique, repeated, same;
-    pg_sim.world.recolour). ValueError for an unknown one, or colour targets where colours repeat."""
+    (`target_by`: colour, point, mask), the scenes' colour variant (`colours`: unique, repeated, same;
+    pg_sim.world.recolour) and the camera's sensor profile (`sensor`: pg_sim.world.sensor_model; checked when an
+    environment is made). ValueError for an unknown one, or colour targets where colours repeat."""
 
     scenes: tuple[str, ...]
     trials: int
@@ -266,6 +268,7 @@ class EvalPlan:
     sim_mode: str = DEFAULT_SIM_MODE
     target_by: str = COLOUR
     colours: str = UNIQUE
+    sensor: str = PERFECT
 
     def __post_init__(self) -> None:
         check_mode(self.colours)
@@ -367,10 +370,10 @@ def worker_init(policy: str, opts: Any, threads: int, blobs: tuple[tuple[str, by
 
 
 def sim_env_factory(plan: EvalPlan) -> Callable[[], Any]:
-    """A maker of fresh simulated environments in the plan's simulation mode and colour variant."""
+    """A maker of fresh simulated environments in the plan's simulation mode, colour variant and sensor profile."""
     from pg_learning.environment.sim_env import SimEnv
 
-    return partial(SimEnv, sim_mode=plan.sim_mode, colours=plan.colours)
+    return partial(SimEnv, sim_mode=plan.sim_mode, colours=plan.colours, sensor=plan.sensor)
 
 
 def worker_trial(index: int, name: str, seed: int, plan: EvalPlan) -> tuple[int, TrialRecord]:

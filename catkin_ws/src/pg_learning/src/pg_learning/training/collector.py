@@ -100,7 +100,7 @@ class Collector:
         self.pushes_ = 0  # pushes chosen in the running episode (the push stage's budget)
         self.in_row_ = 0  # pushes chosen in a row (the push budget of the alternate stage)
         self.obs_: EnvObservation | None = None  # the observation to act on; None: start an episode first
-        self.env = SimEnv(self.geo, sim_mode=cfg.sim_mode)
+        self.env = SimEnv(self.geo, sim_mode=cfg.sim_mode, sensor=cfg.sensor)
         self.guide = None
         if cfg.guided_exploration > 0 and not self.stage.goal_agnostic:
             self.guide = HeuristicPlanner(self.geo)

@@ -10,6 +10,7 @@ from pg_core.seeds import MIN_EVAL_SEED  # training seeds are below it, evaluati
 from pg_policy.models.device import check_device
 from pg_policy.target_loop.episode import DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS, check_train_seed
 from pg_sim.world.scene_families import FAMILIES, GENERATED  # the simulator's generated scene families
+from pg_sim.world.sensor_model import load_profile
 from pg_sim.world.sim_mode import get_sim_mode
 
 
@@ -66,6 +67,8 @@ class TrainConfig:
                                        "a local Ray of collectors + 1 CPUs)")
     sim_mode: str = _f("fast", "simulation mode: fast (kinematic free-space transit, the table a static body) | "
                                "faithful (every motion stepped); pg_sim.world.sim_mode")
+    sensor: str = _f("perfect", "sensor profile of the simulated camera: perfect (exact depth) | d435 | d415 | a "
+                                "YAML file of pg_sim.world.sensor_model.SensorProfile keys")
     weights_every: int = _f(10, "learner updates between weight broadcasts to the collectors: the collectors act "
                                 "with weights up to this many updates old")
 
@@ -96,6 +99,7 @@ def from_args(args: argparse.Namespace) -> TrainConfig:
         raise ValueError(f"--ray-address {cfg.ray_address!r} needs --collectors N >= 1 (the serial loop runs no Ray)")
     check_device(cfg.device)
     get_sim_mode(cfg.sim_mode)  # ValueError naming the modes
+    load_profile(cfg.sensor)  # ValueError naming the profiles
     return cfg
 
 

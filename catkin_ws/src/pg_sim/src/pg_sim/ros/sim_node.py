@@ -19,6 +19,8 @@ Scene limits (every scene file, the initial one included; pg_sim.scenes.scene_li
 the workspace box). ~scene_folders ([]): folders added to those that /pg_sim/reset_scene may name scene and mesh files
 in (default: the scene folders, $ROS_HOME/pg_sim/scenes, the pushgrasp cache and pybullet_data for meshes;
 pg_sim.scenes.scene_folders).
+~sensor ("perfect"): the camera's sensor profile (pg_sim.world.sensor_model: perfect, d435, d415 or a YAML path),
+seeded with ~seed; an unknown one stops the node at start-up with the known ones listed.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ from pg_sim.ros import ros_conversions as conv
 from pg_sim.runtime.runtime_types import RuntimeConfig
 from pg_sim.runtime.sim_runtime import SimRuntime
 from pg_sim.scenes.scene_limits import SceneLimits
+from pg_sim.world.sensor_model import PERFECT, make_sensor
 
 CAMERA_TOPICS = {"color/image_raw": Image, "color/camera_info": CameraInfo,
                  "aligned_depth_to_color/image_raw": Image, "aligned_depth_to_color/camera_info": CameraInfo,
@@ -86,10 +89,12 @@ def main() -> int:
     rospy.init_node("pg_sim", disable_signals=False)
     clock_pub = rospy.Publisher("/clock", Clock, queue_size=10)
     try:
+        sensor = make_sensor(str(rospy.get_param("~sensor", PERFECT)), int(rospy.get_param("~seed", 0)))
         rt = SimRuntime(config())  # loads and settles the initial scene; validates it first
     except Exception as e:  # report any start-up failure clearly
         rospy.logfatal(f"pg_sim: cannot start the simulation: {e}")
         return 1
+    rt.world.camera.use_sensor(sensor)
     clock_pub.publish(conv.clock(rt.sim_time))  # before anything that reads rospy time
     world_frame, cam_frame = rt.geometry.world_frame, rt.geometry.camera_frame
     cam_ns = str(rospy.get_param("~camera_ns", "/camera")).rstrip("/")
@@ -135,6 +140,8 @@ def main() -> int:
     cam_seq = -1
     while not rospy.is_shutdown():
         out = rt.step()
+        if rt.world.camera.sensor is not sensor:  # a renewed world (SimRuntime) gets the same sensor
+            rt.world.camera.use_sensor(sensor)
         if rt.scene_resets > resets_shown[0]:  # a reset whose caller stopped waiting (~reset_timeout)
             publish_resets(rt.scene_resets)
         if out.clock or out.joint_state or out.camera or out.scene_state:

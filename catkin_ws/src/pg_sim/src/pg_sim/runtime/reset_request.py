@@ -16,9 +16,12 @@ from pg_sim.scenes.scene import SceneError, SceneSpec, find_scene, load_scene
 from pg_sim.scenes.scene_folders import AllowedFolders
 from pg_sim.scenes.scene_limits import DEFAULT_LIMITS, SceneLimits
 from pg_sim.world.scene_families import FAMILIES, MAX_OBJECTS, parse_generated, sample_family
+from pg_sim.world.world import ShapeKey, shape_key
 
 MAX_RANDOM_OBJECTS = MAX_OBJECTS  # largest generated scene a reset accepts
 MAX_SCENE_TEXT = 1024  # characters: longest scene name or path a reset accepts
+BUILT_KEYS_KEPT = 4096  # shape keys remembered as buildable (then forgotten all at once and re-checked)
+_built: set[ShapeKey] = set()  # shape keys (pg_sim.world.world.shape_key) that built in a scratch client
 
 
 def resolve_reset(req: ResetRequest, limits: SceneLimits = DEFAULT_LIMITS,
@@ -62,14 +65,24 @@ def resolve_reset(req: ResetRequest, limits: SceneLimits = DEFAULT_LIMITS,
 
 
 def check_buildable(scene: SceneSpec) -> None:
-    """Build every object's shapes in a scratch PyBullet client; raises SceneError naming the first that fails."""
+    """Build the shapes of every object whose shape key has not built before in a scratch PyBullet client (none
+    when all have: a client's shapes are freed only in part when it disconnects); raises SceneError naming the
+    first that fails."""
+    todo = [(spec, key) for spec in scene.objects if (key := shape_key(spec)) not in _built]
+    if not todo:
+        return
     client = p.connect(p.DIRECT)
     try:
-        for spec in scene.objects:
+        for spec, key in todo:
+            if key in _built:  # an earlier object of this scene had it
+                continue
             try:
                 build_shape(client, spec)
             except (ValueError, OSError, RuntimeError, p.error) as e:
                 raise SceneError(f"scene {cut(scene.name, quoted=True)}: object {cut(spec.name, quoted=True)} "
                                  f"({spec.shape}) cannot be built: {e}") from None
+            if len(_built) >= BUILT_KEYS_KEPT:
+                _built.clear()
+            _built.add(key)
     finally:
         p.disconnect(client)

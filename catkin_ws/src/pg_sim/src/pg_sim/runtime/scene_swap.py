@@ -3,8 +3,12 @@ the workspace; on any failure the previous objects are put back (at their poses 
 
 A generated scene is dropped (pg_sim.world.random_scene.drop_scene), a scene file loaded and settled
 (World.load_scene). Objects still moving afterwards are damped to rest (pg_sim.world.rest.bring_to_rest, at most
-``rest_timeout`` s of sim time). Refused, previous scene restored, message naming the object: an object that does not
-come to rest, a target that comes to rest outside the workspace box (pg_core.geometry.Workspace).
+``rest_timeout`` s of sim time). A scene at rest is then watched, undamped, for WATCH_WINDOW s (pg_sim.world.rest
+.watch_still): it is accepted only when no object moved more than the still tolerances (1 mm, 0.01 rad) meanwhile;
+otherwise the objects that moved are damped until they have stayed still (and others that move faster than the
+rest tolerances with them) and the scene is watched anew, for at most WATCH_TIMEOUT s of sim
+time in all. Refused, previous scene restored, message naming the object: an object that does not come to rest or
+keeps creeping, a target that comes to rest outside the workspace box (pg_core.geometry.Workspace).
 """
 
 from __future__ import annotations
@@ -16,7 +20,14 @@ from pg_core.user_text import cut
 from pg_sim.runtime.runtime_types import ResetResult
 from pg_sim.scenes.scene import SceneSpec
 from pg_sim.world.random_scene import drop_scene
-from pg_sim.world.rest import bring_to_rest
+from pg_sim.world.rest import (
+    STILL_ANG_TOL,
+    STILL_POS_TOL,
+    WATCH_TIMEOUT,
+    WATCH_WINDOW,
+    bring_to_rest,
+    watch_still,
+)
 from pg_sim.world.world import World
 
 NAMES_LISTED = 6  # object names a message lists; the others are counted
@@ -50,11 +61,30 @@ def swap_scene(world: World, scene: SceneSpec, generated: bool, rest_timeout: fl
                        loaded.name, loaded.target, len(world.objects))
 
 
-def _check_at_rest(world: World, rest_timeout: float) -> None:
+def _check_at_rest(world: World, rest_timeout: float, window: float = WATCH_WINDOW,
+                   watch_timeout: float = WATCH_TIMEOUT) -> None:
+    """Bring the scene to rest, then require ``window`` s without motion (module docstring); raises SwapFailed."""
     report = bring_to_rest(world, rest_timeout)
     if not report.at_rest:
         raise SwapFailed(f"object(s) {_names(report.moving)} still moving after {report.time:.1f} s of "
                          f"damping (rest_timeout {rest_timeout:g} s)")
+    if window <= 0.0:
+        return
+    deadline = world.sim_time + watch_timeout
+    while True:
+        moved = watch_still(world, window)
+        if not moved:
+            return
+        left = deadline - world.sim_time
+        if left < window:
+            names = [world.objects[b].name for b in moved]
+            raise SwapFailed(f"object(s) {_names(names)} still moving (creeping) after {watch_timeout:g} s of "
+                             f"watching: more than {STILL_POS_TOL * 1000:g} mm or {STILL_ANG_TOL:g} rad in "
+                             f"{window:g} s")
+        report = bring_to_rest(world, left - window, also=moved)
+        if not report.at_rest:
+            raise SwapFailed(f"object(s) {_names(report.moving)} still moving after {report.time:.1f} s of "
+                             f"damping while watched")
 
 
 def _check_target_inside(world: World) -> None:

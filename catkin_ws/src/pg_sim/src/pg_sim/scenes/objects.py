@@ -45,8 +45,11 @@ def build_shape(client: int, spec: ObjectSpec) -> tuple[int, int, float]:
     return get_builder(spec.shape)(client, spec.size)
 
 
-def spawn_object(client: int, spec: ObjectSpec, contact: Contact = DEFAULT_CONTACT) -> int:
+def spawn_object(client: int, spec: ObjectSpec, contact: Contact = DEFAULT_CONTACT,
+                 shapes: tuple[int, int, float] | None = None) -> int:
     """Create ``spec`` as a dynamic rigid body at ``spec.pose`` with its colour; returns the PyBullet body id.
+    ``shapes``: (collision id, visual id, mass kg) that ``build_shape(client, spec)`` returned earlier in this
+    client (a cache: PyBullet shares a shape between bodies); None builds them.
 
     Objects are single-link bodies in maximal coordinates (Bullet's btRigidBody): their contacts are solved with
     split impulses, so a penetration (a finger wedged under a lying can, a screwdriver shaft pressed into the
@@ -55,7 +58,7 @@ def spawn_object(client: int, spec: ObjectSpec, contact: Contact = DEFAULT_CONTA
 
     Raises ValueError / FileNotFoundError as ``build_shape`` and RuntimeError if PyBullet refuses the body.
     """
-    col, vis, mass = build_shape(client, spec)
+    col, vis, mass = shapes if shapes is not None else build_shape(client, spec)
     mass = spec.mass if spec.mass is not None else mass
     x, y, z, roll, pitch, yaw = spec.pose
     quat = p.getQuaternionFromEuler([roll, pitch, yaw], physicsClientId=client)

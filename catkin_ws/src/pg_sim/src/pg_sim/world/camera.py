@@ -2,6 +2,8 @@
 
 Images follow the RealSense driver: colour (H, W, 3) uint8 RGB, depth (H, W) float32 metres along the optical axis
 (0 where nothing was hit), both in `camera_color_optical_frame` (x right, y down, z forward).
+A sensor model (pg_sim.world.sensor_model; none: the perfect camera) turns each rendering into what a real sensor
+would see, and may make the camera render from a pose other than the configured `pose` that everything else assumes.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import numpy as np
 import pybullet as p
 
 from pg_core.geometry import CameraSpec
+from pg_sim.world.sensor_model import SimSensor
 
 # optical frame (x right, y down, z forward) -> OpenGL camera frame (x right, y up, z backward)
 _OPTICAL_TO_GL = np.diag([1.0, -1.0, -1.0, 1.0])
@@ -66,18 +69,41 @@ def project_points(points_cam: np.ndarray, k: np.ndarray) -> np.ndarray:
 
 
 class SimCamera:
-    """Renders the PyBullet scene from the configured camera pose (world <- optical)."""
+    """Renders the PyBullet scene. `pose` (4x4 world <- optical) is the configured pose, the one the heightmap
+    assumes; `render_pose` is the one it renders from: `pose` itself, or `pose` times the sensor's pose error."""
 
-    def __init__(self, client: int, spec: CameraSpec, renderer: int = p.ER_TINY_RENDERER) -> None:
+    def __init__(self, client: int, spec: CameraSpec, renderer: int = p.ER_TINY_RENDERER,
+                 sensor: SimSensor | None = None) -> None:
         self.client_ = client
         self.spec = spec
         self.pose = spec.pose
         self.intrinsics = spec.intrinsics
-        self.view_ = view_matrix(self.pose)
         self.proj_ = projection_matrix(spec)
         self.renderer_ = renderer
+        self.use_sensor(sensor)
+
+    def use_sensor(self, sensor: SimSensor | None) -> None:
+        """Apply `sensor` to every capture and render from its pose (None: the perfect camera at `pose`)."""
+        self.sensor = sensor
+        self.render_pose = self.pose if sensor is None else sensor.render_pose(self.pose)
+        self.view_ = view_matrix(self.render_pose)
+
+    def seed_sensor(self, seed: int) -> None:
+        """Restart the sensor's random stream (and its pose error) from `seed`; nothing for the perfect camera."""
+        if self.sensor is not None:
+            self.sensor.seed(seed)
+            self.use_sensor(self.sensor)
 
     def capture(self) -> Frame:
+        """One frame as sensed: the rendering through the sensor model (as rendered without one)."""
+        frame = self.render()
+        if self.sensor is None:
+            return frame
+        color, depth = self.sensor.apply(frame.color, frame.depth, float(self.spec.fx))
+        return Frame(color=color, depth=depth, segmentation=frame.segmentation)
+
+    def render(self) -> Frame:
+        """One frame as rendered from `render_pose`: exact depth, no sensor model."""
         s = self.spec
         _, _, rgba, zbuf, seg = p.getCameraImage(
             s.width,

@@ -11,12 +11,18 @@ An object is at rest when its velocity is below REST_LIN_TOL and REST_ANG_TOL, o
 STILL_POS_TOL and STILL_ANG_TOL of its pose for STILL_WINDOW s: a block wedged in a pile can jitter in place at
 measurable velocities (contact-solver noise, a fraction of a millimetre) without going anywhere.
 
+An object can also pass both tests while it is not at rest: balanced on an edge and tipping over slowly, or
+creeping down a neighbour, it moves a millimetre in half a second and then falls. `watch_still` steps the world
+undamped for a window and names the objects that moved more than the still tolerances meanwhile; a caller that
+promises a scene at rest (pg_sim.runtime.scene_swap) accepts a scene only after such a window without motion.
+
 Evaluation and training (World.load_scene, pg_sim.world.scene_families.generate_scene) do not call it: their scenes
 are the ones their records were made with.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,6 +39,8 @@ STILL_WINDOW = 0.5    # s: an object whose pose stays within the tolerances belo
 STILL_POS_TOL = 1e-3  # m
 STILL_ANG_TOL = 1e-2  # rad
 _CHECK_EVERY = 12     # steps between checks (20 Hz of sim time), as World.settle
+WATCH_WINDOW = 1.0    # s of sim time a scene at rest must stay within the still tolerances before it is accepted
+WATCH_TIMEOUT = 3.0   # s of sim time spent watching (and re-settling) at most, after REST_TIMEOUT
 
 
 @dataclass(frozen=True)
@@ -60,9 +68,13 @@ def moving_objects(world: World, lin_tol: float = REST_LIN_TOL, ang_tol: float =
 
 
 def bring_to_rest(world: World, timeout: float = REST_TIMEOUT, damping: float = REST_DAMPING,
-                  lin_tol: float = REST_LIN_TOL, ang_tol: float = REST_ANG_TOL) -> RestReport:
-    """Damp moving objects until every object is at rest or ``timeout`` s of sim time pass (module docstring)."""
-    moving = moving_objects(world, lin_tol, ang_tol)
+                  lin_tol: float = REST_LIN_TOL, ang_tol: float = REST_ANG_TOL,
+                  also: Sequence[int] = ()) -> RestReport:
+    """Damp moving objects until every object is at rest or ``timeout`` s of sim time pass (module docstring).
+    ``also``: objects (body ids) damped as well, however slowly they move, until they have stayed still for
+    STILL_WINDOW s (objects that `watch_still` saw creeping)."""
+    forced = [b for b in also if b in world.objects]
+    moving = list(dict.fromkeys([*moving_objects(world, lin_tol, ang_tol), *forced]))
     t0 = world.sim_time
     damped: list[int] = []
     poses: dict[int, list[tuple[float, np.ndarray, np.ndarray]]] = {}  # body -> [(sim time, position, quaternion)]
@@ -78,7 +90,8 @@ def bring_to_rest(world: World, timeout: float = REST_TIMEOUT, damping: float = 
             for body in damped:
                 pos, quat = p.getBasePositionAndOrientation(body, physicsClientId=world.client)
                 poses.setdefault(body, []).append((world.sim_time, np.asarray(pos), np.asarray(quat)))
-            moving = [b for b in moving_objects(world, lin_tol, ang_tol) if not stayed_still(poses.get(b, []))]
+            fast = moving_objects(world, lin_tol, ang_tol)
+            moving = [b for b in dict.fromkeys([*fast, *forced]) if not stayed_still(poses.get(b, []))]
     finally:
         for body in damped:
             p.changeDynamics(body, -1, linearDamping=OBJECT_DAMPING, angularDamping=OBJECT_DAMPING,
@@ -100,3 +113,29 @@ def stayed_still(history: list[tuple[float, np.ndarray, np.ndarray]]) -> bool:
         if float(np.linalg.norm(pos - ps)) > STILL_POS_TOL or angle > STILL_ANG_TOL:
             return False
     return True
+
+
+def watch_still(world: World, window: float = WATCH_WINDOW, pos_tol: float = STILL_POS_TOL,
+                ang_tol: float = STILL_ANG_TOL) -> list[int]:
+    """Step the world ``window`` s of sim time, nothing damped; returns the objects (body ids) whose pose moved more
+    than ``pos_tol`` m or ``ang_tol`` rad from where it was at the start, checked every _CHECK_EVERY steps. Stops
+    early once every object has moved."""
+    start = {b: _pose(world, b) for b in world.objects}
+    moved: list[int] = []
+    end = world.sim_time + window - 1e-9
+    while world.sim_time < end and len(moved) < len(start):
+        for _ in range(_CHECK_EVERY):
+            world.step()
+        for body, (pos0, quat0) in start.items():
+            if body in moved:
+                continue
+            pos, quat = _pose(world, body)
+            angle = 2.0 * np.arccos(min(1.0, abs(float(np.dot(quat, quat0)))))
+            if float(np.linalg.norm(pos - pos0)) > pos_tol or angle > ang_tol:
+                moved.append(body)
+    return moved
+
+
+def _pose(world: World, body: int) -> tuple[np.ndarray, np.ndarray]:
+    pos, quat = p.getBasePositionAndOrientation(body, physicsClientId=world.client)
+    return np.asarray(pos), np.asarray(quat)

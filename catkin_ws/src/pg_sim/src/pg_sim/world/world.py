@@ -2,10 +2,19 @@
 
 Frame: PyBullet's world frame IS `world` (table surface at z = 0, workspace centre at the origin).
 Time: fixed physics step `time_step` (s); `sim_time` counts simulated seconds since construction.
+
+Memory: PyBullet returns the memory of a collision or visual shape only when its client disconnects
+(``removeCollisionShape`` keeps most of it; visual shapes cannot be removed), and keeps about 6 KB of every body
+after ``removeBody``. Objects therefore share their shapes: a world builds the shapes of a `shape_key` once and
+every later object of that key reuses them (PyBullet shares a shape between bodies; colour, mass and friction are
+per body). A world that has created more than RENEW_BODIES bodies or holds more than RENEW_SHAPES shape sets is
+`worn`: an owner that loads scenes for a long time (pg_sim.runtime.sim_runtime) then replaces it by a new world,
+which frees all of it.
 """
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,11 +25,38 @@ from pg_core.geometry import Geometry, load
 from pg_sim.robot.arm_driver import ArmDriver
 from pg_sim.robot.ik import IkSolver
 from pg_sim.robot.robot_model import load_robot
-from pg_sim.scenes.objects import object_pose, spawn_object
+from pg_sim.scenes.meshes import collision_file
+from pg_sim.scenes.objects import build_shape, object_pose, spawn_object
 from pg_sim.scenes.scene import ObjectSpec, SceneSpec
 from pg_sim.world.camera import Frame, SimCamera
+from pg_sim.world.sensor_model import PERFECT, SensorProfile, make_sensor
 from pg_sim.world.sim_mode import DEFAULT_SIM_MODE, SimMode, get_sim_mode
 from pg_sim.world.static_table import detach_table
+
+RENEW_BODIES = 500  # bodies created after which a world is worn (about 3 MB that PyBullet keeps)
+RENEW_SHAPES = 100  # shape sets (one per shape_key) held after which a world is worn (tens of KB to MBs each)
+
+ShapeKey = tuple[object, ...]
+ShapeIds = tuple[int, int, float]  # collision id, visual id, mass (kg) as pg_sim.scenes.objects.build_shape
+
+
+def shape_key(spec: ObjectSpec) -> ShapeKey:
+    """What an object's PyBullet shapes depend on: the registry shape and size, or for a mesh its file (path, and
+    size and modification time of it and of its collision companion) and scale. Equal keys give equal shapes."""
+    if spec.shape != "mesh":
+        return (spec.shape, None if spec.size is None else tuple(float(v) for v in spec.size))
+    mesh = str(spec.mesh or "")
+    return ("mesh", mesh, tuple(float(v) for v in spec.scale), _file_stamp(mesh),
+            _file_stamp(str(collision_file(mesh))) if mesh else None)
+
+
+def _file_stamp(path: str) -> tuple[int, int] | None:
+    """(size in bytes, modification time in ns) of a file, None when it cannot be read."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return (st.st_size, st.st_mtime_ns)
 
 
 @dataclass(frozen=True)
@@ -32,10 +68,14 @@ class Observation:
 
 class World:
     """A simulated cell. Use as a context manager or call close(); `gui=True` opens the PyBullet window. `mode`:
-    a simulation mode of pg_sim.world.sim_mode (``fast`` or ``faithful``); raises ValueError for another."""
+    a simulation mode of pg_sim.world.sim_mode (``fast`` or ``faithful``); raises ValueError for another. `sensor`:
+    the camera's sensor profile (pg_sim.world.sensor_model: ``perfect``, ``d435``, ``d415`` or a YAML path) seeded
+    with `sensor_seed`; raises ValueError for an unknown one."""
 
     def __init__(self, geometry: Geometry | None = None, gui: bool = False, time_step: float = 1 / 240,
-                 solver_iterations: int = 50, mode: str | SimMode = DEFAULT_SIM_MODE) -> None:
+                 solver_iterations: int = 50, mode: str | SimMode = DEFAULT_SIM_MODE,
+                 sensor: str | SensorProfile = PERFECT, sensor_seed: int = 0) -> None:
+        camera_sensor = make_sensor(sensor, sensor_seed)  # ValueError before anything is built
         self.mode = get_sim_mode(mode)
         self.geometry = geometry or load()
         self.client = p.connect(p.GUI if gui else p.DIRECT)
@@ -51,8 +91,10 @@ class World:
             name: ArmDriver(self.client, self.robot.body, idx, self.geometry, self.step)
             for name, idx in self.robot.arms.items()
         }
-        self.camera = SimCamera(self.client, self.geometry.camera)
+        self.camera = SimCamera(self.client, self.geometry.camera, sensor=camera_sensor)
         self.objects: dict[int, ObjectSpec] = {}
+        self.shapes_: dict[ShapeKey, ShapeIds] = {}  # shapes built in this client, per shape_key
+        self.bodies_created = 0  # objects spawned since construction (removed ones included)
         self.target_id: int | None = None
         self.scene: SceneSpec | None = None
         self.home()
@@ -68,6 +110,12 @@ class World:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    @property
+    def worn(self) -> bool:
+        """True once this world has created more than RENEW_BODIES objects or holds more than RENEW_SHAPES shape
+        sets: memory that PyBullet frees only with the world (module docstring)."""
+        return self.bodies_created > RENEW_BODIES or len(self.shapes_) > RENEW_SHAPES
 
     def step(self) -> float:
         p.stepSimulation(physicsClientId=self.client)
@@ -89,8 +137,15 @@ class World:
 
     def add_object(self, spec: ObjectSpec) -> int:
         """Spawn ``spec``; returns its body id. Its ``friction`` (when not None) replaces the default lateral
-        friction; without one, the body is exactly as spawn_object makes it."""
-        body = spawn_object(self.client, spec)
+        friction; without one, the body is exactly as spawn_object makes it. Shapes are built once per
+        `shape_key` and shared (module docstring)."""
+        key = shape_key(spec)
+        shapes = self.shapes_.get(key)
+        if shapes is None:
+            shapes = build_shape(self.client, spec)
+            self.shapes_[key] = shapes
+        body = spawn_object(self.client, spec, shapes=shapes)
+        self.bodies_created += 1
         if spec.friction is not None:
             p.changeDynamics(body, -1, lateralFriction=float(spec.friction), physicsClientId=self.client)
         self.objects[body] = spec
