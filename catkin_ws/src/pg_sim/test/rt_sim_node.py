@@ -188,9 +188,11 @@ class SimNodeTest(unittest.TestCase):
         self.assertTrue(self.reset("household/case11").success)
         start = wait_for(self.left_joints, WAIT, "/joint_states")
         goal = start + np.array([0.3, 0.15, -0.2, 0.1, 0.2, 0.4])
-        t0 = rospy.Time.now()
         self.send_left(goal, 3.0)
         wait_for(lambda: np.abs(self.left_joints() - start).max() > 0.02, WAIT, "the left arm to start moving")
+        # the trajectory's clock starts when the arm moves (the reset just before it stepped the world on for its
+        # stillness watch, so this client's ROS time may lag the sim's when the goal is sent)
+        t0 = rospy.Time.now()
         counts = list(self.resets)
         res = self.reset("packed/case03")
         self.assertFalse(res.success)
