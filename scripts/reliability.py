@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """pushgrasp fault suite, long form: starts sim.launch on a private ROS master (free loopback port, logs in a temporary
-folder), runs the probes of tests/reliability (soak, concurrency, bad input, fuzz, sensor faults, corrupt models,
-malformed scenes, listening ports) and writes report.md and report.json to --out. Everything it starts is stopped on
+folder), runs the probes of tests/reliability (soak, concurrency, bad input, target lost, fuzz, sensor faults,
+corrupt models, malformed scenes, calibration without the board, listening ports) and writes report.md and report.json
+to --out. Everything it starts is stopped on
 exit, Ctrl-C included. Exit status: 0 when every invariant held, 1 otherwise, 2 for bad options.
 
     scripts/reliability.py --out runs/reliability --soak-calls 200 --fuzz 500 --seed 1

@@ -1,6 +1,7 @@
 """The bad-input cases: requests that the stack must refuse (success false, a short clear message, quickly, nothing
 moving and nothing changing). A case marked `quick` also runs in the short form. Limits of grasp_target cases that
-test another field are kept small (one action, 20 s) so that a request accepted by mistake stays short."""
+test another field are kept small (one action, 20 s) so that a request accepted by mistake stays short. A case with
+a `field` must name it in its answer (the target forms: "point: ...", "mask: ...", "target and point: ...")."""
 
 from __future__ import annotations
 
@@ -25,6 +26,27 @@ class Case:
     quick: bool = False
     expect_refused: bool = True
     max_message: int | None = None  # a tighter bound on the answer's length than --max-message (None: that one)
+    field: str = ""  # the request field the answer must name ("": not checked)
+
+
+@dataclass(frozen=True)
+class PointArg:
+    """The `point` of a GraspTarget / Infer request: a frame and a position in it (m); stamp 0 (latest transform)."""
+
+    frame: str
+    xyz: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class MaskArg:
+    """The `mask` of a GraspTarget / Infer request, built by the probe against the colour camera's camera_info: a
+    square of 255 at the image centre (none when not `marked`), `size_delta` px added to the camera's (width, height),
+    stamped with the ROS time of the call (0 when not `stamped`), frame "" (the camera's)."""
+
+    encoding: str = "mono8"
+    size_delta: tuple[int, int] = (0, 0)
+    marked: bool = True
+    stamped: bool = True
 
 
 def grasp_cases(service: str) -> list[Case]:
@@ -56,6 +78,33 @@ def grasp_cases(service: str) -> list[Case]:
     # "" means green (GraspTarget.srv): accepted, one action at most
     cases.append(Case(service, "empty target means green", {"target": "", "max_actions": 1}, False, False))
     return cases
+
+
+BARE_TABLE = (-0.18, 0.18, 0.0)  # world, m: inside the workspace, no object of the baseline scene near it
+OUTSIDE = (0.5, 0.0, 0.0)        # world, m: beyond the workspace's +x border (0.224 m)
+
+
+def target_form_cases(service: str) -> list[Case]:
+    """grasp_target or infer: the target as a point or a mask (GraspTarget.srv), each refused naming its field."""
+    centre = PointArg("world", (0.0, 0.0, 0.0))
+    rows: list[tuple[str, dict[str, Any], str, bool]] = [
+        ("target and point set", {"target": "red", "point": centre}, "target and point", True),
+        ("point and mask set", {"target": "", "point": centre, "mask": MaskArg()}, "point and mask", False),
+        ("point outside the workspace", {"point": PointArg("world", OUTSIDE)}, "point", True),
+        ("point on bare table", {"point": PointArg("world", BARE_TABLE)}, "point", True),
+        ("point in an unknown frame", {"point": PointArg("nowhere", (0.0, 0.0, 0.0))}, "point", False),
+        ("huge point frame (10 000 chars)", {"point": PointArg("f" * 10_000, (0.0, 0.0, 0.0))}, "point", True),
+        ("mask encoding rgb8", {"mask": MaskArg(encoding="rgb8")}, "mask", True),
+        ("mask 1 px narrower than the camera", {"mask": MaskArg(size_delta=(-1, 0))}, "mask", False),
+        ("mask all zeros", {"mask": MaskArg(marked=False)}, "mask", True),
+        ("mask stamp zero", {"mask": MaskArg(stamped=False)}, "mask", False),
+    ]
+    limits = {"max_actions": 1, "timeout": 20.0} if service == "grasp_target" else {}
+    in_quick_infer = ("target and point set", "mask encoding rgb8")
+    return [Case(service, name, {"target": "", **limits, **args},
+                 quick if service == "grasp_target" else name in in_quick_infer,
+                 max_message=ECHO_BOUND if name.startswith("huge") else None, field=fld)
+            for name, args, fld, quick in rows]
 
 
 def primitive_cases() -> list[Case]:

@@ -12,8 +12,18 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import rospy
+from geometry_msgs.msg import PointStamped
 from pg_msgs.msg import SceneState
-from pg_msgs.srv import ExecutePrimitive, ExecutePrimitiveRequest, GraspTarget, Infer, ResetScene
+from pg_msgs.srv import (
+    ExecutePrimitive,
+    ExecutePrimitiveRequest,
+    GraspTarget,
+    GraspTargetRequest,
+    Infer,
+    InferRequest,
+    ResetScene,
+)
+from sensor_msgs.msg import Image
 from std_msgs.msg import Float64
 from trajectory_msgs.msg import JointTrajectory
 
@@ -80,21 +90,33 @@ def bounded(fn: Callable[[], Any], wait_s: float) -> Outcome:
 
 
 class Services:
-    """Proxies of the stack's services (looked up at every call, so a restarted node is found again)."""
+    """Proxies of the stack's services (looked up at every call, so a restarted node is found again). `policy_ns`:
+    where the policy node's grasp_target and infer are served ("/pg"; another policy node's remapped names)."""
 
-    def __init__(self) -> None:
-        self.grasp = rospy.ServiceProxy("/pg/grasp_target", GraspTarget)
-        self.infer = rospy.ServiceProxy("/pg/infer", Infer)
+    def __init__(self, policy_ns: str = "/pg") -> None:
+        self.grasp = rospy.ServiceProxy(f"{policy_ns}/grasp_target", GraspTarget)
+        self.infer = rospy.ServiceProxy(f"{policy_ns}/infer", Infer)
         self.reset = rospy.ServiceProxy("/pg_sim/reset_scene", ResetScene)
         self.execute = rospy.ServiceProxy("/pg/execute_primitive", ExecutePrimitive)
 
     def grasp_target(self, wait_s: float, target: str = "green", max_actions: int = 0, max_failed_grasps: int = 0,
-                     timeout: float = 0.0) -> Outcome:
-        return bounded(lambda: self.grasp(target=target, max_actions=max_actions,
-                                          max_failed_grasps=max_failed_grasps, timeout=timeout), wait_s)
+                     timeout: float = 0.0, point: PointStamped | None = None, mask: Image | None = None) -> Outcome:
+        req = GraspTargetRequest(target=target, max_actions=max_actions, max_failed_grasps=max_failed_grasps,
+                                 timeout=timeout)
+        if point is not None:
+            req.point = point
+        if mask is not None:
+            req.mask = mask
+        return bounded(lambda: self.grasp(req), wait_s)
 
-    def infer_(self, wait_s: float, target: str = "green") -> Outcome:
-        return bounded(lambda: self.infer(target=target), wait_s)
+    def infer_(self, wait_s: float, target: str = "green", point: PointStamped | None = None,
+               mask: Image | None = None) -> Outcome:
+        req = InferRequest(target=target)
+        if point is not None:
+            req.point = point
+        if mask is not None:
+            req.mask = mask
+        return bounded(lambda: self.infer(req), wait_s)
 
     def reset_scene(self, wait_s: float, scene: str, num_objects: int = 0, seed: int = 0) -> Outcome:
         return bounded(lambda: self.reset(scene=scene, num_objects=num_objects, seed=seed), wait_s)

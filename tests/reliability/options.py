@@ -11,7 +11,8 @@ from typing import Any
 from .corrupt_models import CASES as MODEL_CASES
 from .malformed_scenes import CASES as SCENE_CASES
 
-PROBES = ("ports", "soak", "concurrency", "bad_input", "fuzz", "sensors", "models", "scenes")
+PROBES = ("ports", "soak", "concurrency", "bad_input", "target_lost", "fuzz", "sensors", "models", "scenes",
+          "calibration")
 SENSOR_FAULTS = ("projector-frozen", "projector-dead", "sim-frozen", "controller-frozen")
 BAD_INPUT_SETS = ("all", "quick")
 
@@ -55,7 +56,8 @@ class Options:
                            "bad-yaml,missing-pose,nan-pose,huge-size,500-objects,shared-target-colour")
     render_cases: str = opt("all", "scenes: cases also given to `pushgrasp scene render` (all: every one)",
                             "bad-yaml,nan-pose,huge-size")
-    render_bound: float = opt(120.0, "scenes: wall time (s) within which `pushgrasp scene render` must exit")
+    render_bound: float = opt(120.0, "scenes, calibration: wall time (s) within which `pushgrasp scene render` and "
+                              "`pushgrasp calibrate --sim` must exit")
     probe_budget: float = opt(7200.0, "wall-time budget (s) of one probe: its loops stop when it is spent", 150.0)
     startup_timeout: float = opt(240.0, "wall time (s) for the stack to come up")
     keep_temp: bool = opt(False, "keep the temporary folder (ROS logs, launch logs, generated files)")
@@ -76,9 +78,9 @@ def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="scripts/reliability.py",
         description="pushgrasp fault suite: starts sim.launch on a private ROS master and runs the probes (soak, "
-                    "concurrency, bad input, fuzz, sensor faults, corrupt models, malformed scenes, listening "
-                    "ports); writes report.md and report.json to --out. Exit status 0 only when every invariant held "
-                    "and nothing the suite started was left running.")
+                    "concurrency, bad input, target lost, fuzz, sensor faults, corrupt models, malformed scenes, "
+                    "calibration without the board, listening ports); writes report.md and report.json to --out. "
+                    "Exit status 0 only when every invariant held and nothing the suite started was left running.")
     for f in fields(Options):
         flag = "--" + f.name.replace("_", "-")
         quick = f.metadata.get("quick")

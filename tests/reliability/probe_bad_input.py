@@ -1,30 +1,79 @@
-"""Bad input: the cases of bad_input_cases through /pg/grasp_target, its action, /pg/execute_primitive and
+"""Bad input: the cases of bad_input_cases through /pg/grasp_target, its action, /pg/infer, /pg/execute_primitive and
 /pg_sim/reset_scene. Invariant of every case: an answer within --refusal-bound s, success false, a message of at most
---max-message characters (at most bad_input_cases.ECHO_BOUND for a request holding a huge string), nothing sent to
-the arms, no executed action, a refused reset leaves the scene as it was, a refused primitive names no arm; nodes
-alive at the end. ("" as target means green and must be accepted.)"""
+--max-message characters (at most bad_input_cases.ECHO_BOUND for a request holding a huge string) naming the case's
+field when it has one, nothing sent to the arms, no executed action, a refused reset leaves the scene as it was, a
+refused primitive names no arm; nodes alive at the end. ("" as target means green and must be accepted.)
+
+Masks are built against the colour camera's camera_info (CAMERA_INFO, waited for at most 10 s)."""
 
 from __future__ import annotations
 
 import shutil
 from pathlib import Path
 
+import rospy
+from geometry_msgs.msg import PointStamped
+from sensor_msgs.msg import CameraInfo, Image
+
 from . import bad_input_cases as cases_mod
-from .bad_input_cases import Case
+from .bad_input_cases import Case, MaskArg, PointArg
 from .client import GraspAction, MotionWatch, Outcome, Services, fresh_scene_state, same_scene
 from .report import ProbeResult
 from .runner import REPO, Context
 
 TITLE = "Bad input"
 BASELINE = "household/case11"
-SERVICES = ("grasp_target", "action", "execute_primitive", "reset_scene")
+SERVICES = ("grasp_target", "action", "infer", "execute_primitive", "reset_scene")
+CAMERA_INFO = "/camera/color/camera_info"
+MARK_PX = 20  # side of the marked square of a mask (px)
 
 
-def _call(case: Case, svc: Services, action: GraspAction, wait_s: float) -> tuple[Outcome, str]:
+def point_msg(arg: PointArg | None) -> PointStamped | None:
+    """The stamped point of `arg` (stamp 0: the latest transform); None when `arg` is."""
+    if arg is None:
+        return None
+    msg = PointStamped()
+    msg.header.frame_id = arg.frame
+    msg.point.x, msg.point.y, msg.point.z = arg.xyz
+    return msg
+
+
+def mask_msg(arg: MaskArg | None, camera: CameraInfo | None) -> Image | None:
+    """The mask of `arg` for a camera of `camera`'s size (None: 640 x 480); None when `arg` is."""
+    if arg is None:
+        return None
+    width = (camera.width if camera is not None else 640) + arg.size_delta[0]
+    height = (camera.height if camera is not None else 480) + arg.size_delta[1]
+    channels = 3 if arg.encoding in ("rgb8", "bgr8") else 1
+    msg = Image(encoding=arg.encoding, width=width, height=height, step=width * channels)
+    data = bytearray(width * channels * height)
+    if arg.marked:
+        r0, c0 = (height - MARK_PX) // 2, (width - MARK_PX) // 2
+        for r in range(r0, r0 + MARK_PX):
+            start = (r * width + c0) * channels
+            data[start:start + MARK_PX * channels] = b"\xff" * (MARK_PX * channels)
+    msg.data = bytes(data)
+    if arg.stamped:
+        msg.header.stamp = rospy.Time.now()
+    return msg
+
+
+def _camera_info() -> CameraInfo | None:
+    try:
+        return rospy.wait_for_message(CAMERA_INFO, CameraInfo, timeout=10.0)
+    except rospy.ROSException:
+        return None
+
+
+def _call(case: Case, svc: Services, action: GraspAction, wait_s: float,
+          camera: CameraInfo | None = None) -> tuple[Outcome, str]:
     a = case.args
+    point, mask = point_msg(a.get("point")), mask_msg(a.get("mask"), camera)
     if case.service == "grasp_target":
         return svc.grasp_target(wait_s, a["target"], a.get("max_actions", 0), a.get("max_failed_grasps", 0),
-                                a.get("timeout", 0.0)), "-"
+                                a.get("timeout", 0.0), point, mask), "-"
+    if case.service == "infer":
+        return svc.infer_(wait_s, a["target"], point, mask), "-"
     if case.service == "action":
         return action.send(wait_s, a["target"], a.get("max_actions", 0), a.get("max_failed_grasps", 0),
                            a.get("timeout", 0.0))
@@ -52,6 +101,8 @@ def violations(case: Case, out: Outcome, state: str, moved: int, scene_kept: boo
         bad.append("accepted")
     if not out.message.strip():
         bad.append("empty message")
+    if case.field and f"{case.field}:" not in out.message:
+        bad.append(f"message does not name the field '{case.field}'")
     longest = max_message if case.max_message is None else min(max_message, case.max_message)
     if len(out.message) > longest:
         bad.append(f"message of {len(out.message)} chars (at most {longest})")
@@ -77,8 +128,9 @@ def _outside_scene(ctx: Context) -> Path:
 
 
 def select(ctx: Context) -> list[Case]:
-    every = (cases_mod.grasp_cases("grasp_target") + cases_mod.grasp_cases("action") + cases_mod.primitive_cases()
-             + cases_mod.reset_cases(_outside_scene(ctx)))
+    every = (cases_mod.grasp_cases("grasp_target") + cases_mod.grasp_cases("action")
+             + cases_mod.target_form_cases("grasp_target") + cases_mod.target_form_cases("infer")
+             + cases_mod.primitive_cases() + cases_mod.reset_cases(_outside_scene(ctx)))
     return [c for c in every if c.quick] if ctx.opts.bad_input_cases == "quick" else every
 
 
@@ -88,6 +140,9 @@ def run(ctx: Context, res: ProbeResult) -> None:
     watch = MotionWatch().start()
     action = GraspAction()
     action_ok = action.ready()
+    camera = _camera_info() if any("mask" in c.args for c in cases) else None
+    if camera is None and any("mask" in c.args for c in cases):
+        res.notes.append(f"no {CAMERA_INFO} within 10 s: masks built for 640 x 480")
     pids0 = ctx.stack.node_pids()
     table = res.table("Cases and answers", ["service", "case", "success", "answer s", "message (first 100 chars)",
                                             "message chars", "violations"])
@@ -106,7 +161,7 @@ def run(ctx: Context, res: ProbeResult) -> None:
                 dirty = False
             before = watch.settle()
             state0 = fresh_scene_state(10.0) if case.service == "reset_scene" else None
-            out, state = _call(case, svc, action, opts.answer_wait)
+            out, state = _call(case, svc, action, opts.answer_wait, camera)
             if not out.answered:
                 svc.wait_idle(opts.answer_wait)
             moved = watch.settle() - before

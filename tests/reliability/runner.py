@@ -51,7 +51,7 @@ class Context:
 
 
 Probe = Callable[[Context, ProbeResult], None]
-STACKLESS = {"models"}  # probes that start what they need themselves
+STACKLESS = {"models", "calibration"}  # probes that start what they need themselves
 
 
 def _probe(name: str) -> tuple[str, Probe]:

@@ -82,6 +82,6 @@ class TargetRequests:
             t = self.tf_.lookup_transform(target, source, stamp, rospy.Duration(self.tf_timeout_s))
         except tf2_ros.TransformException as exc:
             raise ValueError(f"{field}: no transform from frame '{cut(source)}' to '{cut(target)}' within "
-                             f"{self.tf_timeout_s:g} s ({cut(str(exc), 160)})") from None
+                             f"{self.tf_timeout_s:g} s ({cut(str(exc), 100)})") from None
         tl, q = t.transform.translation, t.transform.rotation
         return quaternion_matrix((tl.x, tl.y, tl.z), (q.x, q.y, q.z, q.w))

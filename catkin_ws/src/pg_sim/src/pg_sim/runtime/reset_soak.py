@@ -119,13 +119,15 @@ def reset_memory(runtime: SimRuntime, requests: Sequence[ResetRequest], warmup: 
 @dataclass
 class StillRun:
     """Per accepted reset, the largest base displacement (m) of any object over ``window`` s of sim time after
-    the answer; ``worst`` lists the largest few as (displacement m, request, object name)."""
+    the answer; ``worst`` lists the largest few as (displacement m, request, object name); ``refusals`` counts the
+    refused resets by reason (REFUSAL_KINDS)."""
 
     resets: int
     accepted: int
     window: float
     displacements: list[float]
     worst: list[tuple[float, str, str]] = field(default_factory=list)
+    refusals: dict[str, int] = field(default_factory=dict)
     wall_s: float = 0.0
 
     def over(self, tolerance: float = STILL_TOLERANCE) -> int:
@@ -134,9 +136,21 @@ class StillRun:
     def summary(self, tolerance: float = STILL_TOLERANCE) -> str:
         top = max(self.displacements, default=0.0)
         worst = f" (worst: {self.worst[0][1]}, {self.worst[0][2]})" if self.worst else ""
+        refused = ", ".join(f"{kind} {n}" for kind, n in sorted(self.refusals.items()))
         return (f"{self.resets} resets, {self.accepted} accepted; largest motion in the {self.window:g} s after an "
                 f"accepted reset {top * 1000:.2f} mm{worst}; {self.over(tolerance)} over "
-                f"{tolerance * 1000:g} mm; {self.wall_s:.0f} s")
+                f"{tolerance * 1000:g} mm; refused: {refused or 'none'}; {self.wall_s:.0f} s")
+
+
+REFUSAL_KINDS: tuple[tuple[str, str], ...] = (  # (text in the message, kind), first match wins
+    ("still moving (creeping)", "creeping"), ("damping while watched", "moving while watched"),
+    ("still moving", "not at rest"), ("outside the workspace", "target outside"),
+)
+
+
+def refusal_kind(message: str) -> str:
+    """The kind (REFUSAL_KINDS) of a refused reset's message; "other" when none matches."""
+    return next((kind for text, kind in REFUSAL_KINDS if text in message), "other")
 
 
 def object_positions(runtime: SimRuntime) -> dict[int, np.ndarray]:
@@ -151,7 +165,10 @@ def reset_stillness(runtime: SimRuntime, requests: Sequence[ResetRequest], windo
     run = StillRun(len(requests), 0, window, [])
     worst: list[tuple[float, str, str]] = []
     for req in requests:
-        if not runtime.reset(req).success:
+        result = runtime.reset(req)
+        if not result.success:
+            kind = refusal_kind(result.message)
+            run.refusals[kind] = run.refusals.get(kind, 0) + 1
             continue
         run.accepted += 1
         before = object_positions(runtime)

@@ -3,8 +3,9 @@ the workspace; on any failure the previous objects are put back (at their poses 
 
 A generated scene is dropped (pg_sim.world.random_scene.drop_scene), a scene file loaded and settled
 (World.load_scene). Objects still moving afterwards are damped to rest (pg_sim.world.rest.bring_to_rest, at most
-``rest_timeout`` s of sim time). A scene at rest is then watched, undamped, for WATCH_WINDOW s (pg_sim.world.rest
-.watch_still): it is accepted only when no object moved more than the still tolerances (1 mm, 0.01 rad) meanwhile;
+``rest_timeout`` s of sim time). A scene at rest is then watched, undamped, for WATCH_WINDOW s, 2 s (pg_sim.world
+.rest.watch_still; Bullet puts objects that stay still that long to sleep): it is accepted only when no object
+moved more than the still tolerances (1 mm, 0.01 rad) meanwhile;
 otherwise the objects that moved are damped until they have stayed still (and others that move faster than the
 rest tolerances with them) and the scene is watched anew, for at most WATCH_TIMEOUT s of sim
 time in all. Refused, previous scene restored, message naming the object: an object that does not come to rest or
