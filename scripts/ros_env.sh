@@ -4,13 +4,17 @@
 # Environment: PG_DEVEL_DIR (default catkin_ws/devel); PG_ROS_NETWORK (network, below).
 #
 # Network: loopback unless asked otherwise. When neither ROS_HOSTNAME nor ROS_IP is set, ROS_HOSTNAME=localhost:
-# rosmaster, roslaunch and every rospy node listen on 127.0.0.1 only, and roscpp nodes' topic and service ports too
-# (their XML-RPC port stays on 0.0.0.0: xmlrpcpp binds INADDR_ANY whatever the setting; only a firewall or a network
-# namespace closes it). ROS_MASTER_URI defaults to http://localhost:11311.
+# rosmaster, roslaunch and every rospy node listen on 127.0.0.1 only, and roscpp nodes' topic and service ports too.
+# A roscpp node's XML-RPC port ignores the setting (xmlrpcpp binds INADDR_ANY), so this mode also preloads
+# devel/lib/libpg_loopback_bind.so (pg_control, src/loopback_bind.c) with PG_LOOPBACK_BIND=1: in every process
+# started from this shell, a TCP/UDP bind to 0.0.0.0 or :: binds 127.0.0.1 or ::1 instead. The shim's path goes
+# first in LD_PRELOAD, before any entries already there; without a built shim nothing is preloaded.
+# ROS_MASTER_URI defaults to http://localhost:11311.
 # To reach a robot network deliberately: PG_ROS_NETWORK=<this machine's address on it> (an IP sets ROS_IP, a name
 # ROS_HOSTNAME; ROS_MASTER_URI defaults to http://<address>:11311): the master, the rospy nodes and roscpp's ports
 # then listen on all interfaces (ROS 1 cannot bind one interface), reachable by the drivers and by anyone on that
-# network. ROS_HOSTNAME, ROS_IP or ROS_MASTER_URI set before sourcing are kept as they are.
+# network; the shim is not preloaded (an earlier sourcing's entry is taken out of LD_PRELOAD, PG_LOOPBACK_BIND
+# unset). ROS_HOSTNAME, ROS_IP or ROS_MASTER_URI set before sourcing are kept as they are (no shim either).
 _pg_repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 _pg_devel="${PG_DEVEL_DIR:-$_pg_repo/catkin_ws/devel}"
 if [ ! -f "$_pg_devel/setup.bash" ]; then
@@ -41,6 +45,7 @@ esac
 _pg_host="${PG_ROS_NETWORK:-localhost}"
 [[ "$_pg_host" == *:* ]] && _pg_host="[$_pg_host]"
 export ROS_MASTER_URI="${_pg_master:-http://$_pg_host:11311}"
+_pg_loopback=""  # 1: the loopback branch below chose ROS_HOSTNAME=localhost
 if [ -z "${ROS_HOSTNAME:-}" ] && [ -z "${ROS_IP:-}" ]; then
   if [[ "${PG_ROS_NETWORK:-}" =~ ^[0-9.]+$ || "${PG_ROS_NETWORK:-}" == *:* ]]; then
     export ROS_IP="$PG_ROS_NETWORK"
@@ -48,11 +53,37 @@ if [ -z "${ROS_HOSTNAME:-}" ] && [ -z "${ROS_IP:-}" ]; then
     export ROS_HOSTNAME="$PG_ROS_NETWORK"
   elif [[ "$ROS_MASTER_URI" =~ ^http://(localhost|127\.[0-9.]+)(:[0-9]+)?/?$ ]]; then
     export ROS_HOSTNAME=localhost
+    _pg_loopback=1
   else
     echo "ros_env.sh: ROS_MASTER_URI=$ROS_MASTER_URI is not this machine: ROS ports listen on all interfaces;" \
          "set PG_ROS_NETWORK (or ROS_IP) to this machine's address on that network" >&2
   fi
 fi
 export PG_ROS_NET_SET="${ROS_HOSTNAME:-}|${ROS_IP:-}|${ROS_MASTER_URI}"
+# Network (header): the loopback bind shim. First take any earlier sourcing's shim out of LD_PRELOAD (whatever devel
+# space it came from), keeping the user's own entries in their order; then, in loopback mode with the shim built,
+# put it first. ld.so splits LD_PRELOAD at colons and spaces, so a shim path holding either cannot be preloaded.
+_pg_shim="$_pg_devel/lib/libpg_loopback_bind.so"
+_pg_preload=""
+if [[ "${LD_PRELOAD:-}" == *libpg_loopback_bind.so* ]]; then
+  IFS=': ' read -r -a _pg_entries <<< "$LD_PRELOAD"
+  for _pg_entry in "${_pg_entries[@]}"; do
+    [[ -z "$_pg_entry" || "$_pg_entry" == */libpg_loopback_bind.so || "$_pg_entry" == libpg_loopback_bind.so ]] \
+      || _pg_preload="${_pg_preload:+$_pg_preload:}$_pg_entry"
+  done
+  if [ -n "$_pg_preload" ]; then export LD_PRELOAD="$_pg_preload"; else unset LD_PRELOAD; fi
+  unset _pg_entries _pg_entry
+else
+  _pg_preload="${LD_PRELOAD:-}"
+fi
+unset PG_LOOPBACK_BIND
+if [ -n "${_pg_loopback:-}" ] && [ -f "$_pg_shim" ]; then
+  if [[ "$_pg_shim" == *[:\ ]* ]]; then
+    echo "ros_env.sh: $_pg_shim cannot be preloaded (its path holds a colon or a space): roscpp nodes' XML-RPC" \
+         "ports listen on all interfaces" >&2
+  else
+    export LD_PRELOAD="$_pg_shim${_pg_preload:+:$_pg_preload}" PG_LOOPBACK_BIND=1
+  fi
+fi
 export PG_REPO="$_pg_repo"
-unset _pg_repo _pg_devel _pg_nounset _pg_master _pg_host
+unset _pg_repo _pg_devel _pg_nounset _pg_master _pg_host _pg_loopback _pg_shim _pg_preload

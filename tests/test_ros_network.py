@@ -2,13 +2,16 @@
 user's), a ROS master and its nodes listen on 127.0.0.1 only, and PG_ROS_NETWORK opts into a robot network.
 
 The stack check starts `roscore` on a free port (rosmaster, roslaunch and rosout, a roscpp node) and a rospy node
-with a publisher and a service, then reads the listening TCP sockets of those processes from /proc. The one
-exception allowed is a roscpp node's XML-RPC port: xmlrpcpp binds INADDR_ANY whatever ROS_HOSTNAME says
-(scripts/ros_env.sh says so); its topic and service ports must still be on loopback.
+with a publisher and a service, then reads the listening TCP sockets of those processes from /proc: none may be on
+0.0.0.0, :: or any other address than loopback. That includes a roscpp node's XML-RPC port, which xmlrpcpp binds to
+INADDR_ANY whatever ROS_HOSTNAME says; the loopback bind shim (pg_control's libpg_loopback_bind.so, preloaded by
+scripts/ros_env.sh in loopback mode with PG_LOOPBACK_BIND=1) binds it to 127.0.0.1. The shim is also tested on its
+own: a Python process binding 0.0.0.0 / :: with and without PG_LOOPBACK_BIND.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import socket
@@ -23,25 +26,55 @@ from urllib.parse import urlparse
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-NETWORK_VARS = ("ROS_HOSTNAME", "ROS_IP", "ROS_MASTER_URI", "PG_ROS_NETWORK", "PG_ROS_NET_SET")
+NETWORK_VARS = ("ROS_HOSTNAME", "ROS_IP", "ROS_MASTER_URI", "PG_ROS_NETWORK", "PG_ROS_NET_SET", "LD_PRELOAD",
+                "PG_LOOPBACK_BIND")
 LOOPBACK = ("127.", "::1", "::ffff:127.")
+SHIM = "libpg_loopback_bind.so"  # in the devel space's lib/ (pg_control's pg_loopback_bind target)
+OTHER_PRELOAD = "libm.so.6"  # a user's own LD_PRELOAD entry: any library ld.so finds by name
 
 needs_devel = pytest.mark.usefixtures("ros_tier")  # the ROS tier (conftest.py): fails without it
 
 
-def ros_env(**extra: str) -> dict[str, str]:
-    """The environment `source scripts/ros_env.sh` gives a shell without network settings of its own (+ extra)."""
+def sourced(**extra: str) -> tuple[dict[str, str], str]:
+    """The environment `source scripts/ros_env.sh` gives a shell without network settings or LD_PRELOAD of its own
+    (+ extra), and what the script wrote to stderr."""
     env = {k: v for k, v in os.environ.items() if k not in NETWORK_VARS} | extra
-    out = subprocess.run(["bash", "-c", f'source "{REPO}/scripts/ros_env.sh" >/dev/null && env -0'], env=env,
-                         capture_output=True, text=True, check=True, timeout=60).stdout
-    return dict(item.split("=", 1) for item in out.split("\0") if "=" in item)
+    proc = subprocess.run(["bash", "-c", f'source "{REPO}/scripts/ros_env.sh" >/dev/null && env -0'], env=env,
+                          capture_output=True, text=True, check=True, timeout=60)
+    return dict(item.split("=", 1) for item in proc.stdout.split("\0") if "=" in item), proc.stderr
 
 
-@needs_devel
-def test_default_is_loopback():
+def ros_env(**extra: str) -> dict[str, str]:
+    return sourced(**extra)[0]
+
+
+def shim_of(devel: Path) -> Path:
+    shim = devel / "lib" / SHIM
+    assert shim.is_file(), f"{shim} not built: run scripts/catkin_build.sh"
+    return shim
+
+
+def test_default_is_loopback(ros_tier: Path):
     env = ros_env()
     assert env.get("ROS_HOSTNAME") == "localhost" and "ROS_IP" not in env
     assert env["ROS_MASTER_URI"] == "http://localhost:11311"
+    assert env.get("PG_LOOPBACK_BIND") == "1" and env.get("LD_PRELOAD") == str(shim_of(ros_tier))
+
+
+def test_loopback_keeps_the_users_preload_and_sourcing_twice_adds_one_shim(ros_tier: Path):
+    shim = str(shim_of(ros_tier))
+    env = ros_env(LD_PRELOAD=OTHER_PRELOAD)
+    assert env["LD_PRELOAD"] == f"{shim}:{OTHER_PRELOAD}" and env["PG_LOOPBACK_BIND"] == "1"
+    again = ros_env(**{k: env[k] for k in NETWORK_VARS if k in env})
+    assert again["LD_PRELOAD"] == env["LD_PRELOAD"] and again["PG_LOOPBACK_BIND"] == "1"
+
+
+def test_without_a_built_shim_nothing_is_preloaded(ros_tier: Path, tmp_path: Path):
+    (tmp_path / "setup.bash").write_text(f'source "{ros_tier}/setup.bash"\n')  # a devel space with no lib/
+    env, stderr = sourced(PG_DEVEL_DIR=str(tmp_path))
+    assert env.get("ROS_HOSTNAME") == "localhost"
+    assert "LD_PRELOAD" not in env and "PG_LOOPBACK_BIND" not in env
+    assert stderr == ""
 
 
 @needs_devel
@@ -49,10 +82,12 @@ def test_default_is_loopback():
     ("192.168.10.5", "ROS_IP", "http://192.168.10.5:11311"),
     ("robot-pc", "ROS_HOSTNAME", "http://robot-pc:11311"),
 ])
-def test_robot_network_is_opt_in(network: str, var: str, master: str):
-    env = ros_env(PG_ROS_NETWORK=network)
+def test_robot_network_is_opt_in(network: str, var: str, master: str, ros_tier: Path):
+    # as an earlier sourcing in loopback mode left the shell: the shim goes, the user's own entry stays
+    env = ros_env(PG_ROS_NETWORK=network, LD_PRELOAD=f"{shim_of(ros_tier)}:{OTHER_PRELOAD}", PG_LOOPBACK_BIND="1")
     assert env[var] == network and env["ROS_MASTER_URI"] == master
     assert ({"ROS_HOSTNAME", "ROS_IP"} - {var}).isdisjoint(env)
+    assert env.get("LD_PRELOAD") == OTHER_PRELOAD and "PG_LOOPBACK_BIND" not in env
 
 
 @needs_devel
@@ -60,6 +95,45 @@ def test_user_settings_are_kept():
     env = ros_env(ROS_IP="10.0.0.7", ROS_MASTER_URI="http://10.0.0.2:11311")
     assert env["ROS_IP"] == "10.0.0.7" and "ROS_HOSTNAME" not in env
     assert env["ROS_MASTER_URI"] == "http://10.0.0.2:11311"
+    assert "LD_PRELOAD" not in env and "PG_LOOPBACK_BIND" not in env
+
+
+BIND_PROBE = """
+import json, socket
+out = {}
+for family, wildcard, kind in ((socket.AF_INET, "0.0.0.0", "tcp"), (socket.AF_INET, "0.0.0.0", "udp"),
+                               (socket.AF_INET6, "::", "tcp"), (socket.AF_INET6, "::", "udp"),
+                               (socket.AF_INET, "127.0.0.2", "tcp")):
+    with socket.socket(family, socket.SOCK_STREAM if kind == "tcp" else socket.SOCK_DGRAM) as s:
+        try:
+            s.bind((wildcard, 0))
+        except OSError:  # no IPv6 here
+            continue
+        out[f"{wildcard} {kind}"] = s.getsockname()[0]
+print(json.dumps(out))
+"""
+
+
+def bound(env: dict[str, str]) -> dict[str, str]:
+    """{"<address asked> <tcp|udp>": address bound} of BIND_PROBE run with env."""
+    out = subprocess.run([sys.executable, "-c", BIND_PROBE], env=env, capture_output=True, text=True, check=True,
+                         timeout=60).stdout
+    return json.loads(out)
+
+
+@pytest.mark.parametrize("setting", ["1", "0", None])
+def test_shim_binds_wildcards_to_loopback_only_when_enabled(setting: str | None, ros_tier: Path):
+    env = {k: v for k, v in os.environ.items() if k not in ("LD_PRELOAD", "PG_LOOPBACK_BIND")}
+    env["LD_PRELOAD"] = str(shim_of(ros_tier))
+    if setting is not None:
+        env["PG_LOOPBACK_BIND"] = setting
+    got = bound(env)
+    assert "0.0.0.0 tcp" in got and "0.0.0.0 udp" in got
+    want = {f"{a} {k}": a for a in ("0.0.0.0", "::") for k in ("tcp", "udp")}
+    if setting == "1":
+        want = {f"{a} {k}": lo for a, lo in (("0.0.0.0", "127.0.0.1"), ("::", "::1")) for k in ("tcp", "udp")}
+    want["127.0.0.2 tcp"] = "127.0.0.2"  # a specific address is bound as asked
+    assert got == {k: v for k, v in want.items() if k in got}
 
 
 def listening() -> dict[int, tuple[str, int]]:
@@ -169,21 +243,21 @@ def stack(tmp_path: Path) -> Iterator[tuple[dict[str, str], list[subprocess.Pope
 
 @needs_devel
 def test_master_and_nodes_listen_on_loopback(stack):
+    """No listening socket of the stack on 0.0.0.0, :: or another non-loopback address, roscpp's XML-RPC included."""
     env, procs = stack
     master = xmlrpc.client.ServerProxy(env["ROS_MASTER_URI"])
-    xmlrpc_ports = {"/rosout": urlparse(master.lookupNode("/test", "/rosout")[2]).port}
+    rosout_xmlrpc = urlparse(master.lookupNode("/test", "/rosout")[2]).port  # xmlrpcpp's INADDR_ANY bind
     table = listening()
-    seen, exposed = 0, []
+    seen, exposed = [], []
     for pid in {p for proc in procs for p in descendants(proc.pid)}:
         try:
-            cmd = Path(f"/proc/{pid}/cmdline").read_text().replace("\0", " ")
+            found = sockets_of(pid, table)
         except OSError:
             continue
-        for addr, port in sockets_of(pid, table):
-            seen += 1
-            roscpp_xmlrpc = "rosout" in cmd and port == xmlrpc_ports["/rosout"] and addr in ("0.0.0.0", "::")
-            if not addr.startswith(LOOPBACK) and not roscpp_xmlrpc:
-                exposed.append(f"{Path(f'/proc/{pid}/comm').read_text().strip()} ({pid}): {addr}:{port}")
+        seen += found
+        exposed += [f"{Path(f'/proc/{pid}/comm').read_text().strip()} ({pid}): {addr}:{port}"
+                    for addr, port in found if not addr.startswith(LOOPBACK)]
     # master, roslaunch, rosout (XML-RPC + TCPROS), the rospy node (XML-RPC + TCPROS)
-    assert seen >= 5, f"only {seen} listening sockets found"
+    assert len(seen) >= 5, f"only {len(seen)} listening sockets found"
     assert not exposed, f"listening on other interfaces than loopback: {exposed}"
+    assert ("127.0.0.1", rosout_xmlrpc) in seen, f"rosout's XML-RPC port {rosout_xmlrpc} not found: {seen}"

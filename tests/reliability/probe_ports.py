@@ -1,8 +1,9 @@
 """Listening ports: every TCP port that a process of the stack listens on (master, node XML-RPC and TCPROS servers)
 is bound to the loopback interface, since the stack runs on its own machine with ROS_HOSTNAME=localhost/ROS_IP=127.0.0.1
-and nothing outside it needs to reach it. The one documented exception (docs/RELIABILITY.md): a roscpp node's XML-RPC
-port, which xmlrpcpp binds to 0.0.0.0 whatever the environment says; it is identified by asking the master for the
-node's URI, and reported."""
+and nothing outside it needs to reach it. That includes a roscpp node's XML-RPC port, which xmlrpcpp binds to 0.0.0.0
+whatever the environment says: scripts/ros_env.sh preloads the loopback bind shim (docs/RELIABILITY.md) in loopback
+mode. A socket off loopback is reported with its node; an XML-RPC port among them (the master's URI for the node) is
+counted apart, so a missing shim shows as such."""
 
 from __future__ import annotations
 
@@ -28,8 +29,9 @@ def run(ctx: Context, res: ProbeResult) -> None:
     res.figures.update({"listening sockets": count, "not on loopback": len(exposed) + len(xmlrpc),
                         "of them roscpp XML-RPC ports (xmlrpcpp binds 0.0.0.0)": len(xmlrpc)})
     res.check("the stack listens on at least one port (the master)", count > 0, f"{count} sockets")
-    res.check("every listening socket is bound to loopback, but roscpp XML-RPC ports", not exposed,
-              f"{len(exposed)} on other interfaces: {', '.join(exposed[:8])}" if exposed else "all on 127.0.0.1/::1")
+    off = exposed + xmlrpc
+    res.check("every listening socket is bound to loopback, roscpp XML-RPC ports included", not off,
+              f"{len(off)} on other interfaces: {', '.join(off[:8])}" if off else "all on 127.0.0.1/::1")
 
 
 def _node_ports(ctx: Context) -> dict[str, int]:

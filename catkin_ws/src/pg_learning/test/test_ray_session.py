@@ -1,6 +1,7 @@
 """A local Ray (`ray_session` without an address, as `pushgrasp eval --workers N` starts it) listens on loopback only:
 every TCP socket in LISTEN state held by this process or one it started (GCS server, raylet, workers, agents) is bound
-to 127.0.0.1 or ::1, none to 0.0.0.0, :: or a routable address; and its processes end with the session."""
+to 127.0.0.1 or ::1, none to 0.0.0.0, :: or a routable address; and its processes end with the session. Processes
+this test process had started before (another test's cluster) are not the local Ray's and are left out."""
 
 from __future__ import annotations
 
@@ -80,6 +81,7 @@ def _name(pid: int) -> str:
 
 def test_a_local_ray_listens_on_loopback_only():
     me = os.getpid()
+    before = _descendants(me)  # e.g. the session's two-node test cluster (conftest.ray_two_nodes): not this Ray's
     with ray_session(2) as info:
         import ray
 
@@ -89,7 +91,7 @@ def test_a_local_ray_listens_on_loopback_only():
 
         assert (info.address, info.cpus) == ("local", 2)
         assert ray.get(node_address.remote(), timeout=60) == LOCAL_NODE_ADDRESS
-        started = _descendants(me)
+        started = _descendants(me) - before
         sockets = listening_sockets(started | {me})
         shown = [f"{_name(pid)} {addr if '.' in addr else f'[{addr}]'}:{port}" for pid, addr, port in sockets]
     assert any(pid != me for pid, _, _ in sockets), f"no Ray process listens: {shown}"

@@ -104,7 +104,7 @@ def ray_session(cpus: int, address: str | None = None) -> Iterator[RayInfo]:
     common = {"include_dashboard": False, "logging_level": logging.WARNING, "runtime_env": {"env_vars": worker_env()}}
     if address is None:
         with local_ray_address():
-            ray.init(num_cpus=cpus, object_store_memory=LOCAL_OBJECT_STORE_BYTES,
+            ray.init(address="local", num_cpus=cpus, object_store_memory=LOCAL_OBJECT_STORE_BYTES,
                      _node_ip_address=LOCAL_NODE_ADDRESS, **common)
         node_address = ray.util.get_node_ip_address()
         if node_address != LOCAL_NODE_ADDRESS:  # a Ray that ignores the address: never leave it listening outside
