@@ -7,7 +7,8 @@
 # rosmaster, roslaunch and every rospy node listen on 127.0.0.1 only, and roscpp nodes' topic and service ports too.
 # A roscpp node's XML-RPC port ignores the setting (xmlrpcpp binds INADDR_ANY), so this mode also preloads
 # devel/lib/libpg_loopback_bind.so (pg_control, src/loopback_bind.c) with PG_LOOPBACK_BIND=1: in every process
-# started from this shell, a TCP/UDP bind to 0.0.0.0 or :: binds 127.0.0.1 or ::1 instead. The shim's path goes
+# started from this shell, a TCP/UDP bind that libxmlrpcpp makes to 0.0.0.0 or :: binds 127.0.0.1 or ::1
+# instead (every other bind is left as asked). The shim's path goes
 # first in LD_PRELOAD, before any entries already there; without a built shim nothing is preloaded.
 # ROS_MASTER_URI defaults to http://localhost:11311.
 # To reach a robot network deliberately: PG_ROS_NETWORK=<this machine's address on it> (an IP sets ROS_IP, a name

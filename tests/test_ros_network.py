@@ -110,6 +110,13 @@ for family, wildcard, kind in ((socket.AF_INET, "0.0.0.0", "tcp"), (socket.AF_IN
         except OSError:  # no IPv6 here
             continue
         out[f"{wildcard} {kind}"] = s.getsockname()[0]
+import ctypes, ctypes.util
+xmlrpc = ctypes.CDLL(ctypes.util.find_library("xmlrpcpp") or "libxmlrpcpp.so")
+xmlrpc_bind = xmlrpc._ZN6XmlRpc12XmlRpcSocket4bindEii  # static bool XmlRpc::XmlRpcSocket::bind(int fd, int port)
+xmlrpc_bind.argtypes, xmlrpc_bind.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_bool
+with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+    if xmlrpc_bind(s.fileno(), 0):  # what a roscpp node's XML-RPC server does: INADDR_ANY
+        out["xmlrpcpp tcp"] = s.getsockname()[0]
 print(json.dumps(out))
 """
 
@@ -122,17 +129,18 @@ def bound(env: dict[str, str]) -> dict[str, str]:
 
 
 @pytest.mark.parametrize("setting", ["1", "0", None])
-def test_shim_binds_wildcards_to_loopback_only_when_enabled(setting: str | None, ros_tier: Path):
+def test_shim_moves_xmlrpcpp_wildcard_binds_to_loopback_only_when_enabled(setting: str | None, ros_tier: Path):
     env = {k: v for k, v in os.environ.items() if k not in ("LD_PRELOAD", "PG_LOOPBACK_BIND")}
     env["LD_PRELOAD"] = str(shim_of(ros_tier))
     if setting is not None:
         env["PG_LOOPBACK_BIND"] = setting
     got = bound(env)
-    assert "0.0.0.0 tcp" in got and "0.0.0.0 udp" in got
+    assert "0.0.0.0 tcp" in got and "0.0.0.0 udp" in got and "xmlrpcpp tcp" in got
+    # binds of every other library (here Python's) are as asked, whatever the setting
     want = {f"{a} {k}": a for a in ("0.0.0.0", "::") for k in ("tcp", "udp")}
-    if setting == "1":
-        want = {f"{a} {k}": lo for a, lo in (("0.0.0.0", "127.0.0.1"), ("::", "::1")) for k in ("tcp", "udp")}
     want["127.0.0.2 tcp"] = "127.0.0.2"  # a specific address is bound as asked
+    # xmlrpcpp's wildcard bind moves to loopback only when the shim is enabled
+    want["xmlrpcpp tcp"] = "127.0.0.1" if setting == "1" else "0.0.0.0"
     assert got == {k: v for k, v in want.items() if k in got}
 
 

@@ -5,7 +5,10 @@
  *   - Active only while the environment variable PG_LOOPBACK_BIND is exactly "1" (read at each bind(2) call). Any
  *     other value, or none, and every bind(2) goes to the C library unchanged: a process that inherits LD_PRELOAD
  *     but runs with PG_LOOPBACK_BIND unset (the robot-network mode of scripts/ros_env.sh) binds as it asks.
- *   - When active, a bind(2) of a TCP or UDP socket to the wildcard address binds to loopback instead, same port:
+ *   - Only binds that libxmlrpcpp makes are touched (the caller's shared object, from dladdr of the return address,
+ *     is a libxmlrpcpp): every other program of a shell that sourced ros_env.sh (Python, Ray, a Jupyter server)
+ *     binds as it asks.
+ *   - When active, such a bind(2) of a TCP or UDP socket to the wildcard address binds to loopback instead, same port:
  *       AF_INET  0.0.0.0 (INADDR_ANY)   -> 127.0.0.1
  *       AF_INET6 ::      (in6addr_any) -> ::1 (a dual-stack socket then accepts ::1 only, not 127.0.0.1)
  *     Every other bind(2) passes through unchanged: a specific address, another family (AF_UNIX, AF_NETLINK, ...),
@@ -43,6 +46,13 @@ static int enabled(void) {
   return v != NULL && strcmp(v, "1") == 0;
 }
 
+/* 1 when the code at `caller` lies in libxmlrpcpp (the one library that binds INADDR_ANY whatever ROS says). */
+static int from_xmlrpcpp(const void *caller) {
+  Dl_info info;
+  return caller != NULL && dladdr(caller, &info) != 0 && info.dli_fname != NULL &&
+         strstr(info.dli_fname, "libxmlrpcpp") != NULL;
+}
+
 /* 1 when fd is a TCP or UDP socket (errno is left as it was). */
 static int is_tcp_or_udp(int fd) {
   int saved = errno;
@@ -59,7 +69,7 @@ int bind(int fd, const struct sockaddr *addr, socklen_t len) {
     errno = ENOSYS;
     return -1;
   }
-  if (addr == NULL || !enabled()) return real(fd, addr, len);
+  if (addr == NULL || !enabled() || !from_xmlrpcpp(__builtin_return_address(0))) return real(fd, addr, len);
 
   if (addr->sa_family == AF_INET && len >= (socklen_t)sizeof(struct sockaddr_in)) {
     struct sockaddr_in in4;
