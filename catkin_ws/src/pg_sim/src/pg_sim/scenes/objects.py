@@ -92,8 +92,10 @@ def object_pose(client: int, body: int) -> Pose:
 
 
 def set_object_pose(client: int, body: int, pose: Sequence[float]) -> None:
-    """Teleport a body to ``pose`` (x, y, z, roll, pitch, yaw) and zero its velocity."""
+    """Teleport a body to ``pose`` (x, y, z, roll, pitch, yaw), zero its velocity and wake it: a sleeping rigid body
+    moved in the air would otherwise stay there until something touches it."""
     x, y, z, roll, pitch, yaw = (float(v) for v in pose)
     quat = p.getQuaternionFromEuler([roll, pitch, yaw], physicsClientId=client)
     p.resetBasePositionAndOrientation(body, [x, y, z], quat, physicsClientId=client)
     p.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=client)
+    p.changeDynamics(body, -1, activationState=p.ACTIVATION_STATE_WAKE_UP, physicsClientId=client)
