@@ -23,14 +23,17 @@ deviation over sqrt(n)); undefined (None) for n < 2.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
 from pg_core.target_mask import MIN_VISIBLE_CELLS
 from pg_policy.target_loop.episode import ERROR, TARGET_LOST
 from pg_policy.target_loop.records import TrialRecord
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -68,15 +71,21 @@ def scene_metrics(trials: Sequence[TrialRecord]) -> dict[str, Stat]:
     }
 
 
-def summarize(trials: Sequence[TrialRecord]) -> dict[str, dict[str, Stat]]:
-    """Per-scene metrics in first-seen scene order, plus "all" over every trial when there are several scenes."""
+def by_scene(trials: Sequence[TrialRecord], of: Callable[[Sequence[TrialRecord]], T]) -> dict[str, T]:
+    """`of` applied to each scene's trials in first-seen scene order, plus "all" over every trial when there are
+    several scenes."""
     scenes: dict[str, list[TrialRecord]] = {}
     for t in trials:
         scenes.setdefault(t.scene, []).append(t)
-    out = {name: scene_metrics(ts) for name, ts in scenes.items()}
+    out = {name: of(ts) for name, ts in scenes.items()}
     if len(scenes) > 1:
-        out["all"] = scene_metrics(trials)
+        out["all"] = of(trials)
     return out
+
+
+def summarize(trials: Sequence[TrialRecord]) -> dict[str, dict[str, Stat]]:
+    """Per-scene metrics in first-seen scene order, plus "all" over every trial when there are several scenes."""
+    return by_scene(trials, scene_metrics)
 
 
 IOU_OK = 0.7  # a tracked mask with at least this IoU against the ground truth follows the right object
@@ -125,13 +134,7 @@ def tracking(trials: Sequence[TrialRecord]) -> Tracking:
 
 def tracking_by_scene(trials: Sequence[TrialRecord]) -> dict[str, Tracking]:
     """`tracking` per scene in first-seen scene order, plus "all" when there are several scenes (as summarize)."""
-    scenes: dict[str, list[TrialRecord]] = {}
-    for t in trials:
-        scenes.setdefault(t.scene, []).append(t)
-    out = {name: tracking(ts) for name, ts in scenes.items()}
-    if len(scenes) > 1:
-        out["all"] = tracking(trials)
-    return out
+    return by_scene(trials, tracking)
 
 
 def fmt(stat: Stat, scale: float = 1.0, digits: int = 1) -> str:
