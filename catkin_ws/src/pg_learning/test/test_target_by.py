@@ -4,8 +4,6 @@ targets where colours repeat."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
@@ -13,7 +11,7 @@ from pg_core.heightmap import Heightmap, world_to_pixel
 from pg_learning.environment.sim_env import SimEnv
 from pg_learning.evaluation.report import markdown
 from pg_learning.evaluation.runner import EvalPlan, Limits, run_trial
-from pg_learning.evaluation.target_by import centre_point, check_target_by, iou, push_shift
+from pg_learning.evaluation.target_by import centre_point, check_target_by, iou
 from pg_policy.cli.main import main
 from pg_policy.decision.decision import Decision
 from pg_policy.policies.registry import make_policy
@@ -61,18 +59,6 @@ def test_centre_point_lies_on_the_mask_and_iou():
     half = np.roll(square, 5, axis=1)  # overlaps half of it
     assert iou(square, square) == 1.0 and iou(square, half) == pytest.approx(50 / 150)
     assert iou(np.zeros_like(square), np.zeros_like(square)) is None
-
-
-def test_push_shift_carries_the_object_in_the_corridor_to_the_pushs_end():
-    hm = _grid(100)
-    mask = np.zeros((100, 100), bool)
-    mask[45:55, 40:50] = True  # x 0.080..0.100 m, y 0.090..0.110 m
-    dx, dy = push_shift(mask, hm, 0.05, 0.1, 0.0, 0.13)  # along +x from 3 cm before its rear face
-    assert dy == pytest.approx(0.0) and dx == pytest.approx(0.13 - 0.031, abs=1e-9)
-    assert push_shift(mask, hm, 0.05, 0.2, 0.0, 0.13) == (0.0, 0.0)  # the corridor misses it
-    assert push_shift(mask, hm, 0.05, 0.1, math.pi, 0.13) == (0.0, 0.0)  # pushes away from it
-    dx, dy = push_shift(mask, hm, 0.09, 0.05, math.pi / 2, 0.13)  # along +y
-    assert dx == pytest.approx(0.0, abs=1e-12) and dy == pytest.approx(0.13 - 0.041, abs=1e-9)
 
 
 def test_a_point_target_on_a_repeated_colour_scene_runs_and_records_iou_per_step():

@@ -11,7 +11,7 @@ import pytest
 from test_target_loop import make
 
 from pg_policy.ros import target_request as tr
-from pg_policy.target_loop.target_loop import LoopError, TargetRefused, as_spec, target_label
+from pg_policy.target_loop.target_loop import LoopError, LoopLimits, TargetRefused, as_spec, target_label
 from pg_policy.target_loop.target_spec import ColourTarget, MaskTarget, PointTarget, TargetFollower
 
 WORKSPACE = np.array([[-0.224, 0.224], [-0.224, 0.224], [0.0, 0.4]])
@@ -159,3 +159,22 @@ def test_an_unsure_track_is_in_the_note(monkeypatch: pytest.MonkeyPatch) -> None
     assert records[0].note.startswith("target track unsure: runner-up within 0.02")
     loop, _, _, _ = make([(True, True, True)])  # the first one's target was lifted
     assert loop.infer(PointTarget(*BOX_XY)).note.startswith("target track unsure: ")
+
+
+def test_an_executed_push_tells_the_tracker_where_it_carried_the_target(monkeypatch: pytest.MonkeyPatch) -> None:
+    from types import SimpleNamespace
+
+    from pg_policy.perception.target_tracker import TargetTracker
+
+    shifts = []
+    update = TargetTracker.update
+    monkeypatch.setattr(TargetTracker, "update", lambda self, hm, shift_xy=None: (shifts.append(shift_xy),
+                                                                                  update(self, hm, shift_xy))[1])
+    loop, _, ex, _ = make([(True, False, False), (False, False, False)], primitive="push")
+    loop.policy.prims = SimpleNamespace(push_length=0.13)  # the geometry's push length, as a policy carries it
+    loop.run(PointTarget(*BOX_XY), LoopLimits(max_actions=2))
+    assert len(ex.calls) == 2 and len(shifts) >= 1
+    dx, dy = shifts[0]  # the push from the box's centre along rotation 1 (22.5 deg) carries it 0.13 m at most
+    assert 0.05 < math.hypot(dx, dy) <= 0.13 and dx > 0 and dy > 0
+    if len(shifts) > 1:
+        assert shifts[1] is None  # the second push was not executed: no move predicted

@@ -95,6 +95,20 @@ def test_a_point_target_follows_the_pushed_object(pushes, same_colour):
     assert isinstance(follower.unsure, bool) and follower.why
 
 
+@pytest.mark.parametrize("same_colour", [False, True], ids=["palette", "one-colour"])
+def test_the_follower_predicts_where_its_executed_push_carried_the_target(pushes, same_colour):
+    before, after, (x, y) = pushes[same_colour]
+    follower = TargetFollower(PointTarget(x, y), GEO.primitives.push_length)
+    follower.mask(before.heightmap)
+    follower.acted("push", x - BEHIND, y, 0.0, executed=False)  # refused: nothing moved
+    assert follower.shift is None
+    follower.acted("push", x - BEHIND, y, 0.0, executed=True)
+    assert follower.shift is not None and follower.shift[0] == pytest.approx(PUSH_SHIFT, abs=0.02)
+    later = follower.mask(after.heightmap)
+    assert _iou(later, after.truth_target) >= MIN_IOU and not follower.unsure, follower.why
+    assert follower.shift is None  # a prediction serves one update
+
+
 def test_a_mask_target_is_refined_to_the_object_it_mostly_covers(pushes):
     before, _, _ = pushes[True]
     rows, cols = np.nonzero(before.truth_target)

@@ -12,7 +12,7 @@ After the first view the trial's TargetFollower tracks the target: no later grou
 `TrialTarget` holds one trial's follower: `observe(hm, truth)` gives the (H, W) bool mask of each observation and
 keeps the record's view of it (`view`: IoU against `truth`, ground-truth cells, whether the tracker was unsure and
 why); `acted(decision, result)` predicts the target's displacement by an executed push for the next update
-(`push_shift`), None otherwise (no move predicted).
+(pg_policy.perception.push_shift, through TargetFollower.acted).
 
 Frames and units: masks are (H, W) bool over the heightmap cells (pg_core.heightmap: rows along y, columns along x);
 points, displacements and lengths in metres in `world`; a decision's yaw in radians (the push travels along
@@ -26,13 +26,12 @@ from typing import Any
 
 import numpy as np
 
-from pg_core.heightmap import Heightmap, cell_centres, pixel_to_world
+from pg_core.heightmap import Heightmap, pixel_to_world
 from pg_policy.target_loop.target_spec import MaskTarget, PointTarget, TargetFollower
 from pg_sim.world.recolour import UNIQUE
 
 COLOUR, POINT, MASK = "colour", "point", "mask"
 TARGET_BY = (COLOUR, POINT, MASK)
-PUSHER_HALF_WIDTH_M = 0.02  # half the width (m) of the closed jaw's path across the push direction (approximate)
 
 
 def check_target_by(target_by: str, colours: str) -> None:
@@ -73,27 +72,6 @@ def first_spec(target_by: str, hm: Heightmap, truth: np.ndarray) -> PointTarget 
     return centre_point(hm, truth) if target_by == POINT else MaskTarget(truth.copy())
 
 
-def push_shift(mask: np.ndarray, hm: Heightmap, x: float, y: float, yaw: float,
-               length: float) -> tuple[float, float]:
-    """(dx, dy) m: where a push from (x, y) along yaw over `length` m carries the object of `mask` in `hm`. The
-    pusher, PUSHER_HALF_WIDTH_M to each side, sweeps a corridor from PUSHER_HALF_WIDTH_M behind the start (where
-    it comes down) to the end; the object's rearmost cell inside the corridor (at distance a along the push from
-    its start) is met there and carried to the end: (length - max(a, 0)) along the push. (0, 0) when no cell of
-    the object lies in the corridor. Rotation and sliding past are not modelled."""
-    rows, cols = np.nonzero(mask)
-    if rows.size == 0:
-        return 0.0, 0.0
-    xy = cell_centres(rows, cols, hm.bounds, hm.resolution) - np.array([x, y])
-    d = np.array([math.cos(yaw), math.sin(yaw)])
-    along = xy @ d
-    across = xy @ np.array([-d[1], d[0]])
-    hit = (np.abs(across) <= PUSHER_HALF_WIDTH_M) & (along >= -PUSHER_HALF_WIDTH_M) & (along <= length)
-    if not hit.any():
-        return 0.0, 0.0
-    travel = max(0.0, length - max(0.0, float(along[hit].min())))
-    return float(d[0] * travel), float(d[1] * travel)
-
-
 class TrialTarget:
     """The target masks of one trial named by ``point`` or ``mask`` (module docstring). `push_length`: m a push
     travels (the geometry's primitives.push_length); None: no displacement is predicted."""
@@ -104,9 +82,6 @@ class TrialTarget:
         self.target_by = target_by
         self.push_length = push_length
         self.follower: TargetFollower | None = None
-        self.last: np.ndarray | None = None  # the latest mask
-        self.last_hm: Heightmap | None = None
-        self.shift: tuple[float, float] | None = None  # predicted for the next observation
         self.view: dict[str, Any] = {}
 
     def observe(self, hm: Heightmap, truth: np.ndarray) -> np.ndarray:
@@ -115,21 +90,16 @@ class TrialTarget:
         the first view does not show the target or its point names no object."""
         truth = np.asarray(truth, dtype=bool)
         if self.follower is None:
-            self.follower = TargetFollower(first_spec(self.target_by, hm, truth))
-        mask = np.asarray(self.follower.mask(hm, self.shift), dtype=bool)
-        self.shift = None
-        self.last, self.last_hm = mask, hm
+            self.follower = TargetFollower(first_spec(self.target_by, hm, truth), self.push_length)
+        mask = np.asarray(self.follower.mask(hm), dtype=bool)
         score = iou(mask, truth)
         self.view = {"iou": None if score is None else round(score, 4), "truth_cells": int(truth.sum()),
                      "unsure": bool(self.follower.unsure), "why": str(self.follower.why)}
         return mask
 
     def acted(self, decision: Any, result: Any) -> None:
-        """Predict the target's displacement by the action just taken (`decision`: primitive, x, y, yaw; `result`:
-        refused): a push that was not refused moves it by push_shift of the latest mask, anything else by nothing
-        known (None)."""
-        self.shift = None
-        pushed = decision.primitive == "push" and not getattr(result, "refused", False)
-        if pushed and self.push_length is not None and self.last is not None and self.last_hm is not None:
-            self.shift = push_shift(self.last, self.last_hm, float(decision.x), float(decision.y),
-                                    float(decision.yaw), self.push_length)
+        """Tell the follower the action just taken (`decision`: primitive, x, y, yaw; `result`: refused), so that
+        an executed push predicts the target's displacement for the next observation (TargetFollower.acted)."""
+        if self.follower is not None:
+            self.follower.acted(str(decision.primitive), float(decision.x), float(decision.y), float(decision.yaw),
+                                not getattr(result, "refused", False))

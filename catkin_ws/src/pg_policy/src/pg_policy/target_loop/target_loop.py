@@ -287,7 +287,8 @@ class TargetLoop:
 
     def _start_target(self, spec: TargetSpec) -> None:
         """Per call: a fresh TargetFollower for a point or mask target (colour: none, the colour path)."""
-        self._follower = None if isinstance(spec, ColourTarget) else TargetFollower(spec)
+        push_length = getattr(getattr(self.policy, "prims", None), "push_length", None)
+        self._follower = None if isinstance(spec, ColourTarget) else TargetFollower(spec, push_length)
         self._seen = None
 
     def _target_mask(self, target: str, shm: StampedHeightmap) -> np.ndarray:
@@ -438,6 +439,9 @@ class TargetLoop:
             ex = self.executor.execute(rec.decision, max(limits.timeout_s - (time.monotonic() - wall0), 1.0))
         rec.execution = ex
         res.actions.append(rec)
+        if self._follower is not None:  # where an executed push carried the target: the next mask looks there
+            d = rec.decision
+            self._follower.acted(d.primitive, d.x, d.y, d.yaw, ex.success)
         try:
             if ex.success and rec.decision.primitive == "grasp" and ex.grasped:
                 after = self._target_mask(rec.target, self._fresh(rec)).sum()

@@ -9,8 +9,10 @@ A request names its target in one of three ways:
 - `MaskTarget(mask)`: the object a (H, W) bool mask over the heightmap grid mostly covers; on the first
   observation the mask is refined to the object segment holding most of its cells, then tracked as a point is.
 
-`TargetFollower(spec)` turns the spec plus successive heightmaps (`mask(hm, shift_xy)`) into the target masks;
-`unsure` and `why` tell the decision record whether the latest track is in doubt and why (always sure for colours).
+`TargetFollower(spec, push_length)` turns the spec plus successive heightmaps (`mask(hm)`) into the target masks;
+`acted(...)` after each action predicts where an executed push carried the target (pg_policy.perception.push_shift)
+for the next update, so a pushed target is looked for where the push left it; `unsure` and `why` tell the decision
+record whether the latest track is in doubt and why (always sure for colours).
 Masks are (H, W) bool over the heightmap cells (pg_core.heightmap: rows along y, columns along x).
 
 Raised: ValueError naming the field (`ColourTarget.name`, `PointTarget.x`, `PointTarget.y`, `PointTarget`,
@@ -28,6 +30,7 @@ import numpy as np
 
 from pg_core.heightmap import Heightmap, world_to_pixel
 from pg_core.target_mask import hsv_window, target_mask
+from pg_policy.perception.push_shift import push_shift
 from pg_policy.perception.segmentation import segment_at, segment_objects
 from pg_policy.perception.target_tracker import TargetTracker, Track
 
@@ -109,27 +112,44 @@ def first_mask(hm: Heightmap, target: PointTarget | MaskTarget) -> np.ndarray:
 
 
 class TargetFollower:
-    """The per-observation target mask of one request: `mask(hm, shift_xy)` for each heightmap in turn."""
+    """The per-observation target mask of one request: `mask(hm)` for each heightmap in turn, `acted(...)` after
+    each action. push_length: m a push travels (the geometry's primitives.push_length); None: no displacement is
+    ever predicted (the tracker looks for the target where it was last seen)."""
 
-    def __init__(self, spec: TargetSpec) -> None:
+    def __init__(self, spec: TargetSpec, push_length: float | None = None) -> None:
         if not isinstance(spec, ColourTarget | PointTarget | MaskTarget):
             raise ValueError(f"target must be a ColourTarget, PointTarget or MaskTarget, got {type(spec).__name__}")
         self.spec = spec
+        self.push_length = push_length
         self.tracker = TargetTracker()
         self.track: Track | None = None  # the latest track (None for colours and before the first observation)
+        self.shift: tuple[float, float] | None = None  # predicted displacement for the next update (m, `world`)
+        self._last: tuple[Heightmap, np.ndarray] | None = None  # the latest heightmap and its mask
 
     def mask(self, hm: Heightmap, shift_xy: tuple[float, float] | None = None) -> np.ndarray:
-        """(H, W) bool target mask in `hm` (empty: not seen). shift_xy: the target's predicted displacement (dx, dy)
-        in `world` metres since the previous heightmap (a push's), None when unknown; ignored for colours and on
-        the first observation. Raises ValueError naming the spec's field when the first heightmap refuses it."""
+        """(H, W) bool target mask in `hm` (empty: not seen). shift_xy: the target's displacement (dx, dy) in
+        `world` metres since the previous heightmap when the caller knows it; None: the one `acted` predicted (or
+        none). Ignored for colours and on the first observation. Raises ValueError naming the spec's field when the
+        first heightmap refuses it."""
         spec = self.spec
         if isinstance(spec, ColourTarget):
             return target_mask(hm.color, hm.valid, spec.name)
         if self.track is None:
             self.track = self.tracker.start(hm, first_mask(hm, spec))
         else:
-            self.track = self.tracker.update(hm, shift_xy)
+            self.track = self.tracker.update(hm, shift_xy if shift_xy is not None else self.shift)
+        self.shift = None
+        self._last = (hm, self.track.mask)
         return self.track.mask
+
+    def acted(self, primitive: str, x: float, y: float, yaw: float, executed: bool) -> None:
+        """Record the action just taken on the latest heightmap (`primitive` "push" or "grasp" at (x, y) m in
+        `world`, yaw rad; `executed`: it ran): an executed push predicts that the target moved by push_shift of the
+        latest mask; anything else predicts no move."""
+        self.shift = None
+        if primitive == "push" and executed and self.push_length is not None and self._last is not None:
+            hm, mask = self._last
+            self.shift = push_shift(mask, hm, x, y, yaw, self.push_length)
 
     @property
     def unsure(self) -> bool:
