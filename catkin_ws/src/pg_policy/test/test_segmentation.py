@@ -7,6 +7,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from pg_core.geometry import load
 from pg_core.heightmap import Heightmap
@@ -70,7 +71,10 @@ def test_labels_are_deterministic_and_zero_off_objects(scenes):
     labels = segment_objects(hm)
     assert labels.dtype == np.int32 and labels.shape == hm.height.shape
     assert np.array_equal(labels, segment_objects(hm))
-    assert not labels[~hm.valid | (hm.height <= 0.008)].any()
+    low = ~hm.valid | (hm.height <= 0.008)
+    for label in range(1, labels.max() + 1):  # off objects only inside an outline of the label (a vessel's floor)
+        part = labels == label
+        assert not (part & low & ~ndimage.binary_fill_holes(part & ~low)).any(), label
     assert set(np.unique(labels)) == set(range(labels.max() + 1))
 
 
@@ -105,3 +109,19 @@ def test_cells_naming_no_object_are_refused(row, col, why):
         hm.valid[row, col] = False
     with pytest.raises(ValueError, match=why):
         segment_at(hm, row, col)
+
+
+def test_a_vessels_floor_belongs_to_the_vessel_and_what_lies_in_it_stays_apart():
+    h = np.zeros((60, 60), np.float32)
+    colour = np.full((60, 60, 3), 200, np.uint8)
+    h[10:50, 10:50], colour[10:50, 10:50] = 0.05, (40, 90, 200)  # a blue bowl: 4 cm wall ...
+    h[14:46, 14:46] = 0.003  # ... around a 3 mm floor
+    h[30:40, 30:40], colour[30:40, 30:40] = 0.02, (220, 40, 40)  # a red block lying in it
+    bounds = np.array([[0.0, 0.12], [0.0, 0.12], [0.0, 0.3]])
+    hm = Heightmap(colour, h, np.ones_like(h, bool), 0.002, bounds)
+    bowl = segment_at(hm, 20, 20)  # a click on the floor
+    assert bowl[10, 10] and bowl[20, 20] and not bowl[35, 35]
+    block = segment_at(hm, 35, 35)
+    assert block.sum() >= 64 and not (block & bowl).any()
+    with pytest.raises(ValueError, match="bare table"):
+        segment_at(hm, 5, 5)

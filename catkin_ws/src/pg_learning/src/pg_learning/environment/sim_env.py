@@ -62,9 +62,11 @@ class SimEnv:
                  colours: str = UNIQUE, sensor: str = PERFECT) -> None:
         self.colours = check_mode(colours)
         self.geometry = geometry or load()
+        self._world_args = (gui, sim_mode, sensor)
         self.world = World(self.geometry, gui=gui, mode=sim_mode, sensor=sensor)
         self.executor = PrimitiveExecutor(self.world, remove_grasped=True)
         self.target = "green"
+        self._used = False  # whether the world has held a scene (then a reset starts from a new one)
 
     def close(self) -> None:
         self.world.close()
@@ -79,8 +81,13 @@ class SimEnv:
         """Load a scene: a SceneSpec, a shipped name/YAML path, or a generated family ``<family>-N`` dropped from
         `seed` (random-N, dense-N, novel-N, novel-packed-N, mixed-N, train-...: pg_sim.world.scene_families);
         then paint it in the colour variant `colours` drawn from `seed` (nothing for ``unique``). `target` is the
-        target's colour name after painting. The camera's sensor model restarts from `seed`."""
+        target's colour name after painting. The camera's sensor model restarts from `seed`.
 
+        Every reset but the first starts from a new World (25 ms; a GUI world is kept): PyBullet's broadphase and
+        contact caches keep the history of earlier scenes, so the same seed dropped into a used world settled into
+        another arrangement. A scene is thus a function of (scene, seed) alone, whatever ran before it."""
+
+        self._fresh_world()
         self.world.camera.seed_sensor(seed)
         if isinstance(scene, SceneSpec):
             self.world.load_scene(scene)
@@ -92,6 +99,15 @@ class SimEnv:
             recolour(self.world, self.colours, seed)
         self.target = self.world.scene.target if self.world.scene else "green"
         return self.observe()
+
+    def _fresh_world(self) -> None:
+        """Replace a used world by a new one of the same arguments (not in GUI mode: its window would close)."""
+        gui, sim_mode, sensor = self._world_args
+        if self._used and not gui:
+            self.world.close()
+            self.world = World(self.geometry, gui=False, mode=sim_mode, sensor=sensor)
+            self.executor = PrimitiveExecutor(self.world, remove_grasped=True)
+        self._used = True
 
     def observe(self) -> EnvObservation:
         obs = self.world.observe()

@@ -15,7 +15,17 @@ Method (OpenCV and scipy.ndimage):
    every object cell joins the seed it reaches over the lowest edges; two touching objects of different height or
    colour stay apart, while one object of uniform height and colour is one seed and one label;
 4. object cells the table basin reaches first (rims, pieces too thin for a seed) join the nearest label when they
-   touch one, else form a label of their own; labels under MIN_OBJECT_CELLS cells are dropped to 0.
+   touch one, else form a label of their own;
+5. cells a single label encloses (a bowl's or cup's floor, lower than OBJECT_HEIGHT_M or unseen) join it; labels
+   under MIN_OBJECT_CELLS cells are dropped to 0.
+
+A click on a part that no seed of its own holds (a sliver of an object mostly under a neighbour: fewer seed cells
+than MIN_SEED_CELLS) lands in the neighbour's label. `segment_at` therefore looks at the clicked cell's own piece:
+the label's cells within COLOUR_EDGE of the chroma (Lab a, b) around the click, 8-connected to it. When the rest
+of the label differs from that piece in median chroma by at least COLOUR_EDGE, the clicked object is the piece,
+not the label; the same holds for a click on the object on top, whose label took the sliver in. Lightness is left
+out (shading on one object changes it), so objects told apart by lightness alone stay merged, and a click on a
+printed part of a real object names that part.
 
 Touching objects of the same height AND colour are told apart only by the gap of invalid or darker side cells the
 camera sees between them; where none is seen they share one label. Labels are 1..N, numbered in raster order of
@@ -129,7 +139,20 @@ def segment_objects(hm: Heightmap) -> np.ndarray:
     levels = np.clip(strength * (EDGE_LEVELS / 4.0), 0, EDGE_LEVELS).astype(np.uint8)  # 4 x threshold saturates
     flooded = ndimage.watershed_ift(levels, markers, structure=np.ones((3, 3), bool)).astype(np.int32)
     labels = np.where(objects & (flooded <= n), flooded, 0)
-    return _renumber(_adopt_orphans(labels, objects & (labels == 0), n))
+    return _renumber(_fill_holes(_adopt_orphans(labels, objects & (labels == 0), n), objects))
+
+
+def _fill_holes(labels: np.ndarray, objects: np.ndarray) -> np.ndarray:
+    """Cells off `objects` that one label encloses (a bowl's or cup's floor, lower than OBJECT_HEIGHT_M, or unseen
+    inside it) join that label; object cells are never taken (an object lying in a bowl stays its own)."""
+    out = labels.copy()
+    for label in np.unique(labels[labels > 0]):
+        part = labels == label
+        rows, cols = np.nonzero(part)
+        r0, r1, c0, c1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
+        inside = ndimage.binary_fill_holes(part[r0:r1, c0:c1]) & (labels[r0:r1, c0:c1] == 0) & ~objects[r0:r1, c0:c1]
+        out[r0:r1, c0:c1][inside] = label
+    return out
 
 
 def _adopt_orphans(labels: np.ndarray, orphans: np.ndarray, n: int) -> np.ndarray:
@@ -163,13 +186,17 @@ def segment_at(hm: Heightmap, row: int, col: int, labels: np.ndarray | None = No
         raise ValueError(f"cell (row {row}, col {col}) lies outside the {rows} x {cols} heightmap")
     if not valid[row, col]:
         raise ValueError(f"cell (row {row}, col {col}) is invalid (nothing seen there)")
-    if height[row, col] <= OBJECT_HEIGHT_M:
-        raise ValueError(f"cell (row {row}, col {col}) is bare table: {height[row, col] * 1000:.1f} mm high, "
-                         f"objects are higher than {OBJECT_HEIGHT_M * 1000:.0f} mm")
     labels = segment_objects(hm) if labels is None else np.asarray(labels)
     if labels.shape != height.shape:
         raise ValueError(f"labels {labels.shape} do not match the heightmap {height.shape}")
+    if height[row, col] <= OBJECT_HEIGHT_M and labels[row, col] == 0:
+        raise ValueError(f"cell (row {row}, col {col}) is bare table: {height[row, col] * 1000:.1f} mm high, "
+                         f"objects are higher than {OBJECT_HEIGHT_M * 1000:.0f} mm")
     label = int(labels[row, col])
+    if label != 0:
+        own = _own_piece(hm, labels == label, row, col)
+        if own is not None:
+            return own
     if label == 0:
         k = SNAP_RADIUS_CELLS
         r0, c0 = max(row - k, 0), max(col - k, 0)
@@ -180,3 +207,24 @@ def segment_at(hm: Heightmap, row: int, col: int, labels: np.ndarray | None = No
         near = hits[np.argmin(((hits - [row - r0, col - c0]) ** 2).sum(axis=1))]
         label = int(window[near[0], near[1]])
     return labels == label
+
+
+def _own_piece(hm: Heightmap, segment: np.ndarray, row: int, col: int) -> np.ndarray | None:
+    """(H, W) bool: the clicked object's part of `segment` (module docstring), or None when the segment holds no
+    piece of another chroma."""
+    chroma = lab_image(np.asarray(hm.color))[..., 1:]
+    k = SNAP_RADIUS_CELLS
+    near = np.zeros_like(segment)
+    near[max(row - k, 0) : row + k + 1, max(col - k, 0) : col + k + 1] = True
+    own = np.median(chroma[segment & near], axis=0)
+    alike = segment & (np.linalg.norm(chroma - own, axis=-1) < COLOUR_EDGE)
+    if not alike[row, col]:
+        return None
+    _, parts = cv2.connectedComponents(alike.astype(np.uint8), connectivity=8)
+    piece = parts == parts[row, col]
+    rest = segment & ~piece
+    if rest.sum() < MIN_OBJECT_CELLS or piece.sum() < MIN_OBJECT_CELLS:
+        return None
+    if float(np.linalg.norm(np.median(chroma[piece], axis=0) - np.median(chroma[rest], axis=0))) < COLOUR_EDGE:
+        return None
+    return piece
