@@ -172,3 +172,27 @@ def test_update_before_start_and_a_mismatched_mask_are_refused():
         TargetTracker().update(_flat())
     with pytest.raises(ValueError, match="shape"):
         TargetTracker().start(_flat(), np.ones((3, 3), bool))
+
+
+def _blocks(*blocks: tuple[int, int, tuple[int, int, int]]) -> Heightmap:
+    """A heightmap of 4 x 4 cm blocks, 3 cm tall: (row, col, RGB) of each block's first cell."""
+    height = np.zeros((224, 224), np.float32)
+    colour = np.full((224, 224, 3), 200, np.uint8)
+    for row, col, rgb in blocks:
+        height[row : row + 20, col : col + 20], colour[row : row + 20, col : col + 20] = 0.03, rgb
+    return Heightmap(colour, height, np.ones((224, 224), bool), GEO.heightmap.resolution, GEO.workspace.bounds)
+
+
+RED, BLUE = (200, 40, 40), (40, 60, 200)
+
+
+def test_a_target_carried_beyond_reach_is_re_found_by_appearance_unless_another_looks_alike():
+    tracker = TargetTracker()
+    first = _blocks((20, 20, RED), (150, 150, BLUE))
+    tracker.start(first, (np.asarray(first.height) > 0) & (np.arange(224)[:, None] < 100))
+    track = tracker.update(_blocks((20, 170, RED), (150, 150, BLUE)))  # 30 cm away: beyond every gate
+    assert track.mask[25, 175] and not track.mask[155, 155] and track.unsure and "re-found" in track.why
+    tracker = TargetTracker()
+    tracker.start(first, (np.asarray(first.height) > 0) & (np.arange(224)[:, None] < 100))
+    track = tracker.update(_blocks((20, 170, RED), (150, 150, RED)))  # two alike: not told apart without a place
+    assert not track.mask.any() and "not found" in track.why

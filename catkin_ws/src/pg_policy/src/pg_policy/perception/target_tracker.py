@@ -22,9 +22,13 @@ the target), so every segment is also scored against the place the target was la
 better of the two.
 
 The score is the weighted mean (W_COLOUR, W_FORM, W_PLACE); the best segment is the target when its score
-reaches FOUND_SCORE, and the track is unsure when the score stays under SURE_SCORE or the runner-up comes within
-MARGIN of it. Objects of one colour are told apart by form and place alone. The appearance stays that of
-the first view; the place follows every found track. A target not found leaves the place where it was last seen.
+reaches FOUND_SCORE. When no segment is found near the expected place (the target was carried farther than
+predicted, or the track followed a neighbour that was then lifted away), the target is looked for anywhere by
+appearance alone: the segment whose mean of colour and form reaches REFIND_SCORE with no other segment within
+REFIND_MARGIN of it is re-found, unsure ("re-found by appearance"); objects alike in colour and form are never
+re-found this way. A found track is unsure when its score stays under SURE_SCORE or the runner-up comes within
+MARGIN of it. Objects of one colour are told apart by form and place alone. The appearance stays that of the
+first view; the place follows every found track. A target not found leaves the place where it was last seen.
 
 Frames and units: masks are (H, W) bool over the heightmap cells (pg_core.heightmap: rows along y, columns along x);
 `shift_xy` is (dx, dy) metres in `world`; heights and distances in metres. Deterministic: the same heightmaps give
@@ -56,6 +60,8 @@ TOP_QUANTILE = 0.9  # the target's "top" height is this quantile of its cells' h
 GATE_M = 0.12  # a segment's centroid this far (m) beyond the predicted displacement from the predicted one: not it
 MERGE_RATIO = 1.8  # a segment over this many times the first view's area that overlaps the prediction is merged
 CROP_CELLS = 3  # a merged segment is cut to its cells within this many cells of the predicted mask
+REFIND_SCORE = 0.8  # a target not found near its place is re-found where colour and form alone score this much
+REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
 
 
 @dataclass(frozen=True, eq=False)
@@ -176,13 +182,12 @@ class TargetTracker:
         scored = sorted(scored, key=lambda s: (s[0], s[1]), reverse=True)
         scored = [s for k, s in enumerate(scored) if k == 0 or s[1] != scored[0][1]]  # runner-up: another segment
         if not scored:
-            return Track(np.zeros_like(self.last_mask), 0.0, True,
-                         f"not found: no object within {GATE_M + math.hypot(dx, dy):.2f} m of where it was expected")
+            return self._refind(hm, labels, lab, f"no object within {GATE_M + math.hypot(dx, dy):.2f} m of where "
+                                "it was expected")
         best, terms, mask, merged = scored[0][0], scored[0][2], scored[0][3], scored[0][4]
         detail = "colour {:.2f} form {:.2f} overlap {:.2f} near {:.2f}".format(*terms)
         if best < FOUND_SCORE:
-            return Track(np.zeros_like(mask), float(best), True,
-                         f"not found: best segment scores {best:.2f} < {FOUND_SCORE} ({detail})")
+            return self._refind(hm, labels, lab, f"best segment scores {best:.2f} < {FOUND_SCORE} ({detail})")
         self.last_mask = mask.copy()
         runner = scored[1][0] if len(scored) > 1 else 0.0
         if merged:
@@ -193,6 +198,23 @@ class TargetTracker:
         if best - runner < MARGIN:
             return Track(mask, float(best), True, f"ambiguous: runner-up scores {runner:.2f} against {best:.2f}")
         return Track(mask, float(best), False, f"match {best:.2f} ({detail})")
+
+    def _refind(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, why: str) -> Track:
+        """The target looked for anywhere by appearance (module docstring), or an empty track saying `why` not."""
+        assert self.reference is not None and self.last_mask is not None
+        ref, scored = self.reference, []
+        for label in range(1, int(labels.max()) + 1):
+            seg = labels == label
+            colour, form, _, _ = self._terms(describe(hm, seg, lab), seg, seg, (0.0, 0.0), ref)
+            scored.append(((colour + form) / 2.0, colour, form, seg))
+        scored.sort(key=lambda s: s[0], reverse=True)
+        if scored and scored[0][0] >= REFIND_SCORE and (len(scored) == 1 or
+                                                        scored[0][0] - scored[1][0] >= REFIND_MARGIN):
+            score, colour, form, mask = scored[0]
+            self.last_mask = mask.copy()
+            return Track(mask, float(score), True, f"re-found by appearance {score:.2f} (colour {colour:.2f} form "
+                         f"{form:.2f}; not found near its place: {why})")
+        return Track(np.zeros_like(self.last_mask), 0.0, True, f"not found: {why}")
 
     def _terms(self, seen: Appearance, seg: np.ndarray, predicted: np.ndarray, expected: tuple[float, float],
                ref: Appearance) -> tuple[float, float, float, float]:
