@@ -11,10 +11,10 @@ import pytest
 from pg_core.heightmap import Heightmap
 from pg_core.palette import palette_rgb
 from pg_policy.decision.decision import Decision
+from pg_policy.target_loop.loop_limits import LoopLimits
 from pg_policy.target_loop.target_loop import (
     Execution,
     LoopError,
-    LoopLimits,
     NoHeightmap,
     StampedHeightmap,
     TargetLoop,

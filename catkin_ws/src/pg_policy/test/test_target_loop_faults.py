@@ -9,7 +9,8 @@ import threading
 import pytest
 from test_target_loop import Executor, make
 
-from pg_policy.target_loop.target_loop import RESET_MESSAGE, LoopLimits, TargetLoop, request_limits
+from pg_policy.target_loop.loop_limits import LoopLimits, request_limits
+from pg_policy.target_loop.target_loop import RESET_MESSAGE, TargetLoop
 
 DEFAULTS = LoopLimits(30, 5, 600.0)
 

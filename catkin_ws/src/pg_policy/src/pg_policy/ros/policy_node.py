@@ -56,17 +56,15 @@ from pg_policy.ros.loop_io import ServiceExecutor, TopicHeightmapSource
 from pg_policy.ros.target_io import TargetRequests
 from pg_policy.ros.target_request import first_view_field, refusal
 from pg_policy.target_loop.episode import CANCELLED, DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
+from pg_policy.target_loop.loop_limits import DEFAULT_TIMEOUT_S, LoopLimits, request_limits
 from pg_policy.target_loop.target_loop import (
-    DEFAULT_TIMEOUT_S,
     LoopError,
-    LoopLimits,
     NoHeightmap,
     StampedHeightmap,
     TargetLoop,
     TargetRefused,
     as_spec,
     mask_of,
-    request_limits,
     target_label,
 )
 
