@@ -34,3 +34,22 @@ def test_a_scene_is_a_function_of_its_seed_alone():
     for obs in again:
         assert np.array_equal(obs.heightmap.height, first.heightmap.height)
         assert np.array_equal(obs.truth_target, first.truth_target)
+
+
+def test_a_calibrated_camera_gives_the_heightmap_of_the_true_pose():
+    """A camera 2 cm / 2 deg off its configured pose warps the heightmap; after the simulated hand-eye calibration
+    the heightmap is the perfect camera's again, up to the calibration's residual."""
+    import numpy as np
+
+    def heights(**kw):
+        with SimEnv(sensor=kw.pop("sensor", "perfect"), **kw) as env:
+            obs = env.reset("packed/case01", 1_000_000)
+            return np.asarray(obs.heightmap.height), env.calibration
+
+    truth, _ = heights()
+    warped, _ = heights(sensor="pose-2cm-2deg")
+    calibrated, run = heights(sensor="pose-2cm-2deg", calibrate=True)
+    mm, deg = run.errors
+    assert mm < 2.0 and deg < 0.2, (mm, deg)
+    off, after = np.abs(warped - truth).mean(), np.abs(calibrated - truth).mean()
+    assert after < 0.2 * off, (off, after)

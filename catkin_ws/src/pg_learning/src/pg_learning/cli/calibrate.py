@@ -16,9 +16,12 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import sys
-from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from pg_learning.environment.sim_calibration import SimCalibration
 
 DESCRIPTION = "The camera's hand-eye calibration board; the calibration in simulation (--sim)."
 
@@ -44,57 +47,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                               description=DESCRIPTION))
 
 
-@dataclass(frozen=True)
-class SimCalibration:
-    """A simulated calibration: the solution, the depth fit, the true camera pose and the configured one."""
-
-    result: object          # pg_policy.perception.hand_eye.HandEyeResult
-    depth: object           # pg_policy.perception.hand_eye.DepthFit
-    true_pose: np.ndarray   # 4x4 world <- optical frame the camera renders from
-    configured: np.ndarray  # 4x4 world <- optical frame of the geometry config
-
-    @property
-    def errors(self) -> tuple[float, float]:
-        """(position error mm, rotation error deg) of the solution against the true pose."""
-        from pg_policy.perception.hand_eye import angle_deg
-
-        x = self.result.world_camera  # type: ignore[attr-defined]
-        return 1e3 * float(np.linalg.norm(x[:3, 3] - self.true_pose[:3, 3])), angle_deg(x, self.true_pose)
-
-
 def simulate(pose_error_mm: float = 20.0, pose_error_deg: float = 2.0, seed: int = 0, poses: int = 12,
              sensor: str = "perfect", arm: str = "left") -> SimCalibration:
     """Run the calibration in a fresh simulated world (DIRECT); raises CalibrationFailed as hand_eye.solve."""
-    from pg_policy.perception.charuco import DEFAULT_BOARD, detect
-    from pg_policy.perception.hand_eye import View, depth_pairs, fit_depth, solve
-    from pg_sim.robot.kinematics import tool_fk
-    from pg_sim.world.calibration_board import SimBoard, board_poses, solve_tool, tool_targets
+    from pg_learning.environment.sim_calibration import calibrate_camera
     from pg_sim.world.sensor_model import load_profile
     from pg_sim.world.world import World
 
     profile = dataclasses.replace(load_profile(sensor), name=f"{load_profile(sensor).name}+pose",
                                   pose_translation_m=pose_error_mm * 1e-3, pose_rotation_deg=pose_error_deg)
-    spec = DEFAULT_BOARD
     with World(sensor=profile, sensor_seed=seed) as world:
-        cam, driver = world.camera, world.arms[arm]
-        table_depth = cam.capture().depth  # both arms at home: the camera sees the table alone
-        board = SimBoard(world.client, world.geometry, world.robot.body, world.robot.arms[arm].tool0, arm,
-                         spec.image(4000.0), spec.printed_size_m)
-        seed_q = np.asarray(world.geometry.robot.arms[arm].home, dtype=np.float64)
-        views = []
-        for target in tool_targets(board_poses(poses), board.mount):
-            q = solve_tool(world.geometry, arm, target, seed_q)
-            if q is None:
-                continue
-            driver.reset(q, world.geometry.gripper.max_opening)  # kinematic: the table is empty
-            seed_q = q
-            board.follow()
-            # the tool pose as a robot reports it: forward kinematics of the joint readings
-            frame = cam.capture()
-            views.append(View(tool_fk(world.geometry, arm, driver.joints()), detect(spec, frame.color), frame.depth))
-        result = solve(views, spec, cam.intrinsics)
-        depth_fit = fit_depth(depth_pairs(result, views, table_depth, cam.intrinsics, spec))
-        return SimCalibration(result, depth_fit, cam.render_pose.copy(), cam.pose.copy())
+        return calibrate_camera(world, poses, arm)
 
 
 def _run(args: argparse.Namespace) -> int:

@@ -84,6 +84,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                          "and gives the table its own static body; faithful steps every motion (docs/RESULTS.md "
                          "compares them on the protocol)")
     add_sensor_argument(ev)
+    ev.add_argument("--calibrate", action="store_true",
+                    help="calibrate the simulated camera before every trial (the ChArUco hand-eye calibration of "
+                         "`pushgrasp calibrate --sim`, in the trial's empty world) and build the heightmaps from the "
+                         "calibrated pose: what a --sensor pose error costs after a calibration")
     options.add_arguments(ev)  # the declared policy options: --grasp-threshold, --rules, --grasp-check, ...
     ev.add_argument("--device", default="cpu", help="torch device of learned policies (default cpu)")
     ev.add_argument("--workers", type=int, default=None,
@@ -143,7 +147,7 @@ def _run(args: argparse.Namespace) -> int:
     del policy
     plan = EvalPlan(tuple(scenes), args.trials, args.seed, Limits(args.max_actions, args.max_failed_grasps),
                     args.jitter_xy, math.radians(args.jitter_yaw), args.sim_mode, args.target_by, args.colours,
-                    args.sensor)
+                    args.sensor, args.calibrate)
     config = {
         "policy": policy_name, "policy_arg": args.policy, "models": [str(p) for p in opts.models],
         "scenes": scenes, "trials": args.trials,
@@ -161,6 +165,8 @@ def _run(args: argparse.Namespace) -> int:
         config.update(target_by=args.target_by, colours=args.colours)
     if args.sensor != PERFECT:  # absent by default, as above
         config.update(sensor=args.sensor)
+    if args.calibrate:
+        config.update(calibrate=True)
     jobs = plan.jobs()
     journal = TrialJournal(args.out, config, fresh=args.fresh)
     pending = journal.pending(jobs)

@@ -56,11 +56,16 @@ class SimEnv:
     (default) or ``faithful`` (pg_sim.world.sim_mode); `colours`: the colour variant every reset paints
     (pg_sim.world.recolour: ``unique`` (default: the scene's own colours), ``repeated``, ``same``); `sensor`: the
     camera's sensor profile (pg_sim.world.sensor_model: ``perfect`` (default), ``d435``, ``d415`` or a YAML path),
-    re-seeded with the seed of every reset. Raises ValueError for an unknown mode, variant or profile."""
+    re-seeded with the seed of every reset (its pose error too); `calibrate`: every reset first calibrates the camera
+    in the empty world (pg_learning.environment.sim_calibration, `calibration` keeps the latest) and the heightmaps
+    then assume the calibrated pose, as a real cell after `calibrate.launch`. Raises ValueError for an unknown mode,
+    variant or profile."""
 
     def __init__(self, geometry: Geometry | None = None, gui: bool = False, sim_mode: str = DEFAULT_SIM_MODE,
-                 colours: str = UNIQUE, sensor: str = PERFECT) -> None:
+                 colours: str = UNIQUE, sensor: str = PERFECT, calibrate: bool = False) -> None:
         self.colours = check_mode(colours)
+        self.calibrate = calibrate
+        self.calibration: Any = None  # the latest pg_learning.environment.sim_calibration.SimCalibration
         self.geometry = geometry or load()
         self._world_args = (gui, sim_mode, sensor)
         self.world = World(self.geometry, gui=gui, mode=sim_mode, sensor=sensor)
@@ -88,7 +93,10 @@ class SimEnv:
         another arrangement. A scene is thus a function of (scene, seed) alone, whatever ran before it."""
 
         self._fresh_world()
+        self.world.camera.pose = self.world.camera.spec.pose  # a kept (GUI) world's camera forgets a calibration
         self.world.camera.seed_sensor(seed)
+        if self.calibrate:
+            self._calibrate()
         if isinstance(scene, SceneSpec):
             self.world.load_scene(scene)
         elif parse_generated(str(scene)):
@@ -99,6 +107,14 @@ class SimEnv:
             recolour(self.world, self.colours, seed)
         self.target = self.world.scene.target if self.world.scene else "green"
         return self.observe()
+
+    def _calibrate(self) -> None:
+        """Calibrate the camera of the (empty) world and make the heightmaps assume the calibrated pose; the camera
+        still renders from its true one. Raises hand_eye.CalibrationFailed."""
+        from pg_learning.environment.sim_calibration import calibrate_camera
+
+        self.calibration = calibrate_camera(self.world)
+        self.world.camera.pose = np.asarray(self.calibration.result.world_camera, dtype=np.float64).copy()
 
     def _fresh_world(self) -> None:
         """Replace a used world by a new one of the same arguments (not in GUI mode: its window would close)."""

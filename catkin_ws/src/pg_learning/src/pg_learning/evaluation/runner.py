@@ -256,8 +256,9 @@ class EvalPlan:
     """The trials to run: scenes x trials, seeds seed + i, limits, pose jitter of fixed scenes, the simulation
     mode of their environments (pg_sim.world.sim_mode: fast or faithful), how trials name the target
     (`target_by`: colour, point, mask), the scenes' colour variant (`colours`: unique, repeated, same;
-    pg_sim.world.recolour) and the camera's sensor profile (`sensor`: pg_sim.world.sensor_model; checked when an
-    environment is made). ValueError for an unknown one, or colour targets where colours repeat."""
+    pg_sim.world.recolour), the camera's sensor profile (`sensor`: pg_sim.world.sensor_model; checked when an
+    environment is made) and whether the camera is calibrated in simulation before every trial (`calibrate`:
+    pg_learning.environment.sim_calibration). ValueError for an unknown one, or colour targets where colours repeat."""
 
     scenes: tuple[str, ...]
     trials: int
@@ -269,6 +270,7 @@ class EvalPlan:
     target_by: str = COLOUR
     colours: str = UNIQUE
     sensor: str = PERFECT
+    calibrate: bool = False
 
     def __post_init__(self) -> None:
         check_mode(self.colours)
@@ -373,7 +375,7 @@ def sim_env_factory(plan: EvalPlan) -> Callable[[], Any]:
     """A maker of fresh simulated environments in the plan's simulation mode, colour variant and sensor profile."""
     from pg_learning.environment.sim_env import SimEnv
 
-    return partial(SimEnv, sim_mode=plan.sim_mode, colours=plan.colours, sensor=plan.sensor)
+    return partial(SimEnv, sim_mode=plan.sim_mode, colours=plan.colours, sensor=plan.sensor, calibrate=plan.calibrate)
 
 
 def worker_trial(index: int, name: str, seed: int, plan: EvalPlan) -> tuple[int, TrialRecord]:
