@@ -45,6 +45,7 @@ COMMANDS: dict[str, Command] = {
     "kinds": Command("pg_learning", "pg_learning.cli.kinds:add_parser", LEARNING),
     "offline": Command("pg_learning", "pg_learning.cli.offline:add_parser", LEARNING),
     "calibrate": Command("pg_learning", "pg_learning.cli.calibrate:add_parser", LEARNING),
+    "robustness": Command("pg_learning", "pg_learning.cli.robustness:add_parser", LEARNING),
     "policies": Command("pg_policy", "pg_policy.cli.policies:add_parser"),
 }
 
