@@ -196,3 +196,13 @@ def test_a_target_carried_beyond_reach_is_re_found_by_appearance_unless_another_
     tracker.start(first, (np.asarray(first.height) > 0) & (np.arange(224)[:, None] < 100))
     track = tracker.update(_blocks((20, 170, RED), (150, 150, RED)))  # two alike: not told apart without a place
     assert not track.mask.any() and "not found" in track.why
+
+
+def test_delta_e94_is_cie94_and_weighs_hue_over_shading():
+    from pg_policy.perception.target_tracker import delta_e94
+
+    # Sharma, Wu and Dalal's first test pair, CIE94 graphic arts: 1.3950
+    assert delta_e94(np.array([50, 2.6772, -79.7751]), np.array([50, 0, -82.7485]), k_l=1.0) == pytest.approx(
+        1.3950, abs=1e-4)
+    red, shaded, orange = np.array([47.3, 51.7, 28.8]), np.array([61.0, 62.6, 34.8]), np.array([60.0, 40.0, 60.0])
+    assert delta_e94(red, shaded) < 0.5 * delta_e94(red, orange)  # a tilted red face is nearer red than orange

@@ -102,6 +102,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--policy", default="lite", help="policy name or model directory (default lite)")
     ap.add_argument("--scenes", default="random-15", help="one scene or generated family (default random-15)")
     ap.add_argument("--seed", type=int, default=1_000_000, help="evaluation seed (>= 1,000,000)")
+    ap.add_argument("--allow-train-seeds", action="store_true",
+                    help="accept a seed below 1,000,000 (a training scene: for looking into tuning runs)")
     ap.add_argument("--target-by", choices=(POINT, MASK), default=POINT, help="how the target is named")
     ap.add_argument("--colours", default="same", help="scene colours: unique, repeated or same (default same)")
     ap.add_argument("--max-actions", type=int, default=MAX_PANELS, help="action budget of the trial")
@@ -113,7 +115,8 @@ def main(argv: list[str] | None = None) -> None:
     from pg_policy.policies.registry import make_policy
     from pg_policy.target_loop.episode import Limits, check_eval_seed
 
-    check_eval_seed(args.seed)
+    if not args.allow_train_seeds:
+        check_eval_seed(args.seed)
     with SimEnv(colours=args.colours) as env:
         watcher = Watcher(env, make_policy(args.policy))
         rec = run_trial(env, watcher.policy, args.scenes, args.seed, Limits(max_actions=args.max_actions),

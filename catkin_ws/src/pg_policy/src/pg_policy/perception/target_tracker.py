@@ -5,7 +5,9 @@
 `update(hm, shift_xy)` segments each new heightmap (pg_policy.perception.segmentation.segment_objects) and scores
 every segment against that record; each term lies in [0, 1]:
 
-- colour: exp(-dE / COLOUR_SCALE), dE the Lab distance with lightness weighted by LIGHTNESS_WEIGHT (shading);
+- colour: exp(-dE / COLOUR_SCALE), dE the CIE94 colour difference (`delta_e94`) with lightness weighted by
+  LIGHTNESS_WEIGHT: shading and a tilted face change lightness and chroma together and leave the hue, which CIE94
+  weighs most for saturated colours;
 - form: the mean of the height term exp(-dh / HEIGHT_SCALE_M) (dh: the mean absolute difference of the median and
   the top height), the area ratio min/max, and the shape term exp(-|d hu1| / HU1_SCALE - |d ratio| / RATIO_SCALE)
   (first Hu moment and minor/major axis ratio: invariant to rotation and translation);
@@ -47,7 +49,7 @@ import numpy as np
 from pg_core.heightmap import Heightmap
 from pg_policy.perception.segmentation import LIGHTNESS_WEIGHT, lab_image, segment_objects
 
-COLOUR_SCALE = 12.0  # Lab distance (delta-E, lightness weighted) at which the colour term falls to 1/e
+COLOUR_SCALE = 12.0  # CIE94 difference (lightness weighted) at which the colour term falls to 1/e
 HEIGHT_SCALE_M = 0.01  # median height difference (m) at which the height term falls to 1/e
 HU1_SCALE = 0.03  # first Hu moment difference (a square 0.167, a 2:1 rectangle 0.208) weighing 1/e
 RATIO_SCALE = 0.3  # minor/major axis ratio difference (a square 1, a 2:1 rectangle 0.5) weighing 1/e
@@ -102,6 +104,16 @@ def describe(hm: Heightmap, mask: np.ndarray, lab: np.ndarray | None = None) -> 
     return Appearance(np.median(lab[cells], axis=0), int(mask.sum()), float(np.median(heights)),
                       float(np.quantile(heights, TOP_QUANTILE)), float(cv2.HuMoments(m)[0, 0]), ratio,
                       (m["m01"] / m["m00"], m["m10"] / m["m00"]))
+
+
+def delta_e94(reference: np.ndarray, sample: np.ndarray, k_l: float = 1.0 / LIGHTNESS_WEIGHT) -> float:
+    """CIE94 colour difference (graphic-arts weights) of two Lab colours (3,), `reference` the first view's:
+    sqrt((dL / k_l)^2 + (dC / (1 + 0.045 C_ref))^2 + (dH / (1 + 0.015 C_ref))^2), C chroma, dH the hue difference
+    as an arc. Written out (five lines) because neither OpenCV nor the project's other dependencies provide it."""
+    (l1, a1, b1), (l2, a2, b2) = (float(v) for v in reference), (float(v) for v in sample)
+    c1, c2 = math.hypot(a1, b1), math.hypot(a2, b2)
+    dh2 = max((a1 - a2) ** 2 + (b1 - b2) ** 2 - (c1 - c2) ** 2, 0.0)
+    return math.sqrt(((l1 - l2) / k_l) ** 2 + ((c1 - c2) / (1.0 + 0.045 * c1)) ** 2 + dh2 / (1.0 + 0.015 * c1) ** 2)
 
 
 def shifted(mask: np.ndarray, rows: int, cols: int) -> np.ndarray:
@@ -219,8 +231,7 @@ class TargetTracker:
     def _terms(self, seen: Appearance, seg: np.ndarray, predicted: np.ndarray, expected: tuple[float, float],
                ref: Appearance) -> tuple[float, float, float, float]:
         """(colour, form, overlap, nearness) terms in [0, 1] of one segment (see the module docstring)."""
-        d_lab = (seen.lab - ref.lab) * np.array([LIGHTNESS_WEIGHT, 1.0, 1.0])
-        colour = math.exp(-float(np.linalg.norm(d_lab)) / COLOUR_SCALE)
+        colour = math.exp(-delta_e94(ref.lab, seen.lab) / COLOUR_SCALE)
         height = math.exp(-(abs(seen.height - ref.height) + abs(seen.top - ref.top)) / 2 / HEIGHT_SCALE_M)
         area = min(seen.area, ref.area) / max(seen.area, ref.area)
         shape = math.exp(-abs(seen.hu1 - ref.hu1) / HU1_SCALE - abs(seen.ratio - ref.ratio) / RATIO_SCALE)
