@@ -206,23 +206,3 @@ def test_delta_e94_is_cie94_and_weighs_hue_over_shading():
         1.3950, abs=1e-4)
     red, shaded, orange = np.array([47.3, 51.7, 28.8]), np.array([61.0, 62.6, 34.8]), np.array([60.0, 40.0, 60.0])
     assert delta_e94(red, shaded) < 0.5 * delta_e94(red, orange)  # a tilted red face is nearer red than orange
-
-
-def test_a_merged_segment_is_cut_to_the_targets_chroma_when_a_neighbour_of_another_is_in_it():
-    from pg_policy.perception.segmentation import lab_image
-
-    first = _blocks((50, 50, RED))
-    tracker = TargetTracker()
-    tracker.start(first, np.asarray(first.height) > 0)
-    later = _blocks((50, 56, RED), (50, 76, BLUE))  # moved 6 cells, a blue block now touching it
-    whole = np.asarray(later.height) > 0
-    lab = lab_image(np.asarray(later.color))
-    grow = np.ones((7, 7), np.uint8)
-    cut = tracker._cut(whole, np.asarray(first.height) > 0, lab, grow)
-    red = np.zeros_like(whole)
-    red[50:70, 56:76] = True
-    assert np.array_equal(cut, red)  # the red block whole, none of the blue
-    same = _blocks((50, 56, RED), (50, 76, RED))  # one chroma: cut to the predicted place
-    cut = tracker._cut(np.asarray(same.height) > 0, np.asarray(first.height) > 0, lab_image(np.asarray(same.color)),
-                       grow)
-    assert cut[60, 60] and not cut[60, 90]
