@@ -18,9 +18,8 @@ every segment against that record; each term lies in [0, 1]:
 Two guards keep a track from jumping. A segment whose centroid lies farther than GATE_M plus the predicted
 displacement from the predicted centroid is not the target (a push carries an object push_length at most; a failed
 grasp moves it a few centimetres). A segment more than MERGE_RATIO times the target's first-view area that overlaps
-the predicted mask (the target merged with a touching neighbour) is cut: to its cells of the target's chroma that
-touch the predicted mask when a neighbour of another chroma is in it, else to the cells within CROP_CELLS of the
-predicted mask; the track is unsure. A predicted displacement may be wrong (the push missed
+the predicted mask (the target merged with a touching neighbour of its colour) is cut to the cells within
+CROP_CELLS of the predicted mask, and the track is unsure. A predicted displacement may be wrong (the push missed
 the target), so every segment is also scored against the place the target was last seen, unmoved, and keeps the
 better of the two.
 
@@ -48,13 +47,7 @@ import cv2
 import numpy as np
 
 from pg_core.heightmap import Heightmap
-from pg_policy.perception.segmentation import (
-    COLOUR_EDGE,
-    LIGHTNESS_WEIGHT,
-    MIN_OBJECT_CELLS,
-    lab_image,
-    segment_objects,
-)
+from pg_policy.perception.segmentation import LIGHTNESS_WEIGHT, lab_image, segment_objects
 
 COLOUR_SCALE = 12.0  # CIE94 difference (lightness weighted) at which the colour term falls to 1/e
 HEIGHT_SCALE_M = 0.01  # median height difference (m) at which the height term falls to 1/e
@@ -191,7 +184,7 @@ class TargetTracker:
             whole = labels == label
             for predicted, expected in places:
                 merged = int(whole.sum()) > MERGE_RATIO * ref.area and bool((whole & predicted).any())
-                seg = self._cut(whole, predicted, lab, grow) if merged else whole
+                seg = whole & (cv2.dilate(predicted.astype(np.uint8), grow) > 0) if merged else whole
                 seen = describe(hm, seg, lab)
                 if math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) > gate:
                     continue
@@ -211,27 +204,12 @@ class TargetTracker:
         runner = scored[1][0] if len(scored) > 1 else 0.0
         if merged:
             return Track(mask, float(best), True,
-                         f"merged with a touching object: cut to its colour or the predicted place ({detail})")
+                         f"merged with a touching object: cut to the predicted place ({detail})")
         if best < SURE_SCORE:
             return Track(mask, float(best), True, f"weak match {best:.2f} < {SURE_SCORE} ({detail})")
         if best - runner < MARGIN:
             return Track(mask, float(best), True, f"ambiguous: runner-up scores {runner:.2f} against {best:.2f}")
         return Track(mask, float(best), False, f"match {best:.2f} ({detail})")
-
-    def _cut(self, whole: np.ndarray, predicted: np.ndarray, lab: np.ndarray, grow: np.ndarray) -> np.ndarray:
-        """The target's part of a merged segment: its cells of the target's chroma (within COLOUR_EDGE of the first
-        view's a, b) 8-connected to the predicted mask, when cells of another chroma are there to leave out; else
-        (one chroma: a look-alike neighbour, or the target itself now less hidden) its cells within CROP_CELLS of
-        the predicted mask."""
-        assert self.reference is not None
-        alike = whole & (np.linalg.norm(lab[..., 1:] - self.reference.lab[1:], axis=-1) < COLOUR_EDGE)
-        if int((whole & ~alike).sum()) >= MIN_OBJECT_CELLS:
-            _, parts = cv2.connectedComponents(alike.astype(np.uint8), connectivity=8)
-            touched = np.unique(parts[alike & (cv2.dilate(predicted.astype(np.uint8), grow) > 0)])
-            own = np.isin(parts, touched[touched > 0])
-            if own.any():
-                return own
-        return whole & (cv2.dilate(predicted.astype(np.uint8), grow) > 0)
 
     def _refind(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, why: str) -> Track:
         """The target looked for anywhere by appearance (module docstring), or an empty track saying `why` not."""
