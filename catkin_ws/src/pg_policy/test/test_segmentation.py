@@ -11,7 +11,7 @@ from scipy import ndimage
 
 from pg_core.geometry import load
 from pg_core.heightmap import Heightmap
-from pg_policy.perception.segmentation import segment_at, segment_objects
+from pg_policy.perception.segmentation import SEGMENT_HEIGHT_M, segment_at, segment_objects
 
 GEO = load()
 SCENES = [("packed/case01", 0), ("packed/case05", 0), ("random-10", 1000000), ("random-10", 1000001),
@@ -71,7 +71,7 @@ def test_labels_are_deterministic_and_zero_off_objects(scenes):
     labels = segment_objects(hm)
     assert labels.dtype == np.int32 and labels.shape == hm.height.shape
     assert np.array_equal(labels, segment_objects(hm))
-    low = ~hm.valid | (hm.height <= 0.008)
+    low = ~hm.valid | (hm.height <= SEGMENT_HEIGHT_M)
     for label in range(1, labels.max() + 1):  # off objects only inside an outline of the label (a vessel's floor)
         part = labels == label
         assert not (part & low & ~ndimage.binary_fill_holes(part & ~low)).any(), label
@@ -115,7 +115,7 @@ def test_a_vessels_floor_belongs_to_the_vessel_and_what_lies_in_it_stays_apart()
     h = np.zeros((60, 60), np.float32)
     colour = np.full((60, 60, 3), 200, np.uint8)
     h[10:50, 10:50], colour[10:50, 10:50] = 0.05, (40, 90, 200)  # a blue bowl: 4 cm wall ...
-    h[14:46, 14:46] = 0.003  # ... around a 3 mm floor
+    h[14:46, 14:46] = 0.003  # ... around a 3 mm floor (under the 4 mm object threshold)
     h[30:40, 30:40], colour[30:40, 30:40] = 0.02, (220, 40, 40)  # a red block lying in it
     bounds = np.array([[0.0, 0.12], [0.0, 0.12], [0.0, 0.3]])
     hm = Heightmap(colour, h, np.ones_like(h, bool), 0.002, bounds)

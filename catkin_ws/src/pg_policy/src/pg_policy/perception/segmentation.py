@@ -2,7 +2,8 @@
 
 Contract. Input: a pg_core.heightmap.Heightmap in `world` ((H, W) cells, rows along y, columns along x; height in
 metres above the workspace zmin; colour (H, W, 3) uint8 RGB; valid (H, W) bool). Object cells are valid cells higher
-than pg_core.heightmap.OBJECT_HEIGHT_M; every other cell is table (or unseen) and carries label 0.
+than SEGMENT_HEIGHT_M (4 mm, half of pg_core.heightmap.OBJECT_HEIGHT_M: a fork, knife or pair of scissors lying
+flat stands 4-7 mm); every other cell is table (or unseen) and carries label 0.
 
 Method (OpenCV and scipy.ndimage):
 1. edges: a cell lies on an edge when, within its 3 x 3 neighbourhood, the height spans at least DEPTH_EDGE_M (a step
@@ -16,7 +17,7 @@ Method (OpenCV and scipy.ndimage):
    colour stay apart, while one object of uniform height and colour is one seed and one label;
 4. object cells the table basin reaches first (rims, pieces too thin for a seed) join the nearest label when they
    touch one, else form a label of their own;
-5. cells a single label encloses (a bowl's or cup's floor, lower than OBJECT_HEIGHT_M or unseen) join it; labels
+5. cells a single label encloses (a bowl's or cup's floor, lower than SEGMENT_HEIGHT_M or unseen) join it; labels
    under MIN_OBJECT_CELLS cells are dropped to 0.
 
 A click on a part that no seed of its own holds (a sliver of an object mostly under a neighbour: fewer seed cells
@@ -41,7 +42,7 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from pg_core.heightmap import OBJECT_HEIGHT_M, Heightmap
+from pg_core.heightmap import Heightmap
 
 DEPTH_EDGE_M = 0.006  # height span (m) within a 3 x 3 neighbourhood that makes a depth edge (3 mm per 2 mm cell)
 COLOUR_EDGE = 18.0  # weighted Lab span within a 3 x 3 neighbourhood that makes a colour edge (about 18 delta-E)
@@ -50,6 +51,7 @@ SEED_ERODE_CELLS = 1  # seeds are shrunk by this many cells (8-neighbourhood) of
 MIN_SEED_CELLS = 12  # seed components smaller than this (cells; 0.5 cm^2 at 2 mm) are slivers, not objects
 MIN_OBJECT_CELLS = 20  # labels smaller than this (cells) are speckle and dropped to 0
 SNAP_RADIUS_CELLS = 2  # `segment_at` on an unlabelled object cell takes the object within this many cells
+SEGMENT_HEIGHT_M = 0.004  # cells higher than this (m above the table) hold an object; 8 mm left flat utensils out
 EDGE_LEVELS = 255  # edge strengths are quantised to 0..EDGE_LEVELS for the watershed (uint8)
 
 
@@ -67,9 +69,9 @@ def _check(hm: Heightmap) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def object_cells(hm: Heightmap) -> np.ndarray:
-    """(H, W) bool: the valid cells higher than OBJECT_HEIGHT_M (the cells that hold an object)."""
+    """(H, W) bool: the valid cells higher than SEGMENT_HEIGHT_M (the cells that hold an object)."""
     height, _, valid = _check(hm)
-    return valid & (height > OBJECT_HEIGHT_M)
+    return valid & (height > SEGMENT_HEIGHT_M)
 
 
 def lab_image(color: np.ndarray) -> np.ndarray:
@@ -143,7 +145,7 @@ def segment_objects(hm: Heightmap) -> np.ndarray:
 
 
 def _fill_holes(labels: np.ndarray, objects: np.ndarray) -> np.ndarray:
-    """Cells off `objects` that one label encloses (a bowl's or cup's floor, lower than OBJECT_HEIGHT_M, or unseen
+    """Cells off `objects` that one label encloses (a bowl's or cup's floor, lower than SEGMENT_HEIGHT_M, or unseen
     inside it) join that label; object cells are never taken (an object lying in a bowl stays its own)."""
     out = labels.copy()
     for label in np.unique(labels[labels > 0]):
@@ -178,7 +180,7 @@ def segment_at(hm: Heightmap, row: int, col: int, labels: np.ndarray | None = No
 
     labels: the heightmap's `segment_objects` labels when already computed (else computed here).
     Raises ValueError when the cell lies outside the grid, is invalid, is bare table (not higher than
-    OBJECT_HEIGHT_M), or no object label lies within SNAP_RADIUS_CELLS of it.
+    SEGMENT_HEIGHT_M), or no object label lies within SNAP_RADIUS_CELLS of it.
     """
     height, _, valid = _check(hm)
     rows, cols = height.shape
@@ -189,9 +191,9 @@ def segment_at(hm: Heightmap, row: int, col: int, labels: np.ndarray | None = No
     labels = segment_objects(hm) if labels is None else np.asarray(labels)
     if labels.shape != height.shape:
         raise ValueError(f"labels {labels.shape} do not match the heightmap {height.shape}")
-    if height[row, col] <= OBJECT_HEIGHT_M and labels[row, col] == 0:
+    if height[row, col] <= SEGMENT_HEIGHT_M and labels[row, col] == 0:
         raise ValueError(f"cell (row {row}, col {col}) is bare table: {height[row, col] * 1000:.1f} mm high, "
-                         f"objects are higher than {OBJECT_HEIGHT_M * 1000:.0f} mm")
+                         f"objects are higher than {SEGMENT_HEIGHT_M * 1000:.0f} mm")
     label = int(labels[row, col])
     if label != 0:
         own = _own_piece(hm, labels == label, row, col)
