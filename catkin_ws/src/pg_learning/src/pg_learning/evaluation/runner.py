@@ -254,11 +254,10 @@ def trial_scene(name: str, seed: int, jitter_xy: float, jitter_yaw: float) -> An
 @dataclass(frozen=True)
 class EvalPlan:
     """The trials to run: scenes x trials, seeds seed + i, limits, pose jitter of fixed scenes, the simulation
-    mode of their environments (pg_sim.world.sim_mode: fast or faithful), how trials name the target
-    (`target_by`: colour, point, mask), the scenes' colour variant (`colours`: unique, repeated, same;
-    pg_sim.world.recolour), the camera's sensor profile (`sensor`: pg_sim.world.sensor_model; checked when an
-    environment is made) and whether the camera is calibrated in simulation before every trial (`calibrate`:
-    pg_learning.environment.sim_calibration). ValueError for an unknown one, or colour targets where colours repeat."""
+    mode (pg_sim.world.sim_mode), how trials name the target (`target_by`: colour, point, mask), the colour
+    variant (`colours`: pg_sim.world.recolour), the camera (`sensor`: a pg_sim.world.sensor_model profile, checked
+    when an environment is made; `calibrate`: calibrated before every trial, pg_learning.environment.sim_calibration).
+    ValueError for an unknown one, or colour targets where colours repeat."""
 
     scenes: tuple[str, ...]
     trials: int
