@@ -1,9 +1,8 @@
 """The evaluation runner behind `pushgrasp eval`: the trials of the protocol of DESIGN.md section 8, in this process or
 on Ray actors, every one through the same protocol, each in a fresh simulator, so the records do not depend on where
-they ran.
-
-A trial is one episode of the protocol shared with the ROS call and training (pg_policy.target_loop.episode): reset
-the scene (seeded), then ask the policy for one decision at a time and execute it, until
+they ran. A trial is one episode of the protocol shared with the ROS call and training
+(pg_policy.target_loop.episode): reset the scene (seeded), then ask the policy for one decision at a time and
+execute it, until
   - the target is grasped (the trial is *completed*),
   - the target has left the workspace (``target_lost``: the target memory's evidence, confirmed, or overruled, by
     the simulator's ground truth, SimEnv.target_outside),
