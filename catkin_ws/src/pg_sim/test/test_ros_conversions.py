@@ -101,6 +101,24 @@ def test_markers_start_with_deleteall_and_carry_the_parts():
     serialized(arr)
 
 
+def test_marker_points_are_reused_within_a_scene_and_dropped_with_it():
+    """A running sim node publishes markers at 2 Hz for hours: the triangle points of the current scene's parts are
+    built once, and the parts of earlier scenes are not kept (the cache grew 4 MB per 100 resets before)."""
+    def scene_items():
+        arch = ObjectSpec(shape="arch", size=None, color=(89, 161, 79), pose=(0, 0, 0, 0, 0, 0), name="a")
+        return pose_parts("a", marker_parts(arch), np.zeros(3), np.array([0, 0, 0, 1.0]), (0.35, 0.63, 0.31, 1.0))
+
+    items = scene_items()
+    triangles = sum(1 for m in items if m.part.kind == "triangles")
+    assert triangles >= 1
+    first = [m.points for m in conv.markers(items, 1.0, "world").markers[1:] if m.type == Marker.TRIANGLE_LIST]
+    again = [m.points for m in conv.markers(items, 1.5, "world").markers[1:] if m.type == Marker.TRIANGLE_LIST]
+    assert all(a is b for a, b in zip(first, again, strict=True))  # same scene: points built once
+    for _ in range(50):  # 50 resets: new parts every time
+        conv.markers(scene_items(), 2.0, "world")
+    assert len(conv._points_cache) == triangles
+
+
 def test_scene_state_and_reset_response_messages():
     pytest.importorskip("pg_msgs.msg", reason="ROS tier: pg_msgs not built or not sourced (make setup; "
                                               "source scripts/ros_env.sh)")

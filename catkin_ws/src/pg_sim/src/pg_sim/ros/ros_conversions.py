@@ -107,22 +107,24 @@ def scene_state(state: SceneState, frame: str):  # -> pg_msgs/SceneState
 
 _TYPES = {"cube": Marker.CUBE, "cylinder": Marker.CYLINDER, "triangles": Marker.TRIANGLE_LIST,
           "mesh": Marker.MESH_RESOURCE}
-_points_cache: dict[int, tuple[MarkerPart, list[Point]]] = {}
+_points_cache: dict[int, tuple[MarkerPart, list[Point]]] = {}  # the parts of the last markers() call only
 
 
-def _points(part: MarkerPart) -> list[Point]:
+def _points(part: MarkerPart, cache: dict[int, tuple[MarkerPart, list[Point]]]) -> list[Point]:
+    """The part's triangle points as geometry_msgs/Point, from the previous call's cache when the part is the same
+    object; every hit or new entry goes into ``cache`` (the next call's cache)."""
     hit = _points_cache.get(id(part))
     if hit is None or hit[0] is not part:
-        pts = [] if part.points is None else [Point(*(float(c) for c in v)) for v in part.points]
-        if len(_points_cache) > 4096:
-            _points_cache.clear()
-        hit = _points_cache[id(part)] = (part, pts)
+        hit = (part, [] if part.points is None else [Point(*(float(c) for c in v)) for v in part.points])
+    cache[id(part)] = hit
     return hit[1]
 
 
 def markers(items: list[ObjectMarker], t: float, frame: str, ns: str = "pg_sim_objects") -> MarkerArray:
     """A DELETEALL then one marker per object part (namespace ``ns/<object name>``, ids = part index)."""
+    global _points_cache
     out = [Marker(header=header(t, frame), action=Marker.DELETEALL)]
+    cache: dict[int, tuple[MarkerPart, list[Point]]] = {}
     counts: dict[str, int] = {}
     for m in items:
         k = counts.get(m.object_name, 0)
@@ -132,10 +134,11 @@ def markers(items: list[ObjectMarker], t: float, frame: str, ns: str = "pg_sim_o
                     frame_locked=False)
         mk.scale.x, mk.scale.y, mk.scale.z = m.part.scale
         if m.part.kind == "triangles":
-            mk.points = _points(m.part)
+            mk.points = _points(m.part, cache)
         elif m.part.kind == "mesh" and m.part.mesh:
             mk.mesh_resource = "file://" + m.part.mesh
         out.append(mk)
+    _points_cache = cache  # parts of earlier scenes are dropped: a long-running node's memory stays flat
     return MarkerArray(markers=out)
 
 
