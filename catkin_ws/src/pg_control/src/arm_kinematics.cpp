@@ -172,7 +172,7 @@ std::optional<JointVector> ArmKinematics::solve(const Eigen::Isometry3d& world_T
       return q;  // unique on the branch up to the 2 pi shifts already chosen
     }
     const JointVector d = (*q - seed).cwiseAbs();
-    const double cost = d.maxCoeff() * 10.0 + d.sum();  // as pg_sim.robot.ur_ik.closest
+    const double cost = d.maxCoeff() * 10.0 + d.sum();  // as pg_core.ur_ik.closest
     if (cost < best_cost) {
       best_cost = cost;
       best = q;

@@ -1,7 +1,7 @@
 """Cross-language kinematics: pg_control's C++ (KDL on the URDF) against pg_sim's Python (closed-form DH).
 
 Sim and controller must never disagree about the robot (DESIGN.md section 3): the C++ forward kinematics must equal
-pg_sim.robot.kinematics.tcp_fk / tool_fk, and the C++ IK (KDL, restricted to the config's ik_branch, nearest the seed)
+pg_core.kinematics.tcp_fk / tool_fk, and the C++ IK (KDL, restricted to the config's ik_branch, nearest the seed)
 must
 pick the same joint configuration as pg_sim.robot.ik.IkSolver for the tool-down poses the primitives use. The C++ side
 runs
@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 
 from pg_core.geometry import DEFAULT_CONFIG, load
+from pg_core.kinematics import arm_base_pose, tcp_fk, tool_fk
+from pg_core.ur_ik import ik_all
 from pg_sim.robot.ik import IkSolver
-from pg_sim.robot.kinematics import arm_base_pose, tcp_fk, tool_fk
-from pg_sim.robot.ur_ik import ik_all
 
 REPO = Path(__file__).resolve().parents[4]
 DEVEL = Path(os.environ.get("PG_DEVEL_DIR", REPO / "catkin_ws" / "devel"))

@@ -1,10 +1,10 @@
-// pg_control_kinematics: the C++ kinematics on stdin/stdout, for cross-checks against pg_sim's Python kinematics.
+// pg_control_kinematics: the C++ kinematics on stdin/stdout, for cross-checks against pg_core's Python kinematics.
 //
 // Usage: pg_control_kinematics WORKSPACE_YAML [URDF]   (URDF default: the config's robot.urdf)
 // One command per input line, one answer line each (numbers in %.17g; rad, metres, `world` frame):
 //   fk ARM q1..q6               -> 16 numbers: world <- <arm>_gripper_tcp, row-major 4x4
 //   tool0 ARM q1..q6            -> 16 numbers: world <- <arm>_tool0
-//   branch ARM q1..q6           -> shoulder wrist elbow (signs, pg_sim.robot.ur_ik order)
+//   branch ARM q1..q6           -> shoulder wrist elbow (signs, pg_core.ur_ik order)
 //   ik ARM x y z yaw s1..s6     -> q1..q6 of the tool-down TCP pose, seeded from s, or "none"
 // A malformed line answers "error: <reason>"; the exit status is 0 unless the config or URDF cannot be loaded.
 #include <pg_core/workspace_config.h>

@@ -28,3 +28,22 @@ def test_too_few_poses_write_nothing_and_say_how_many(tmp_path):
         calibrate.simulate(seed=1, poses=4)
     out = tmp_path / "camera_calibration.yaml"
     assert calibrate.main(["--sim", "--poses", "4", "--out", str(out)]) == 1 and not out.exists()
+
+
+def test_a_board_attached_to_the_world_follows_the_arm_into_every_capture():
+    """World.attach_board (the sim node's ~calibration_board): the board shows where the arm holds it."""
+    from pg_core.calibration_poses import calibration_plan
+    from pg_policy.perception.charuco import DEFAULT_BOARD, detect
+    from pg_sim.world.world import World
+
+    with World() as world:
+        with pytest.raises(ValueError, match="unknown arm 'middle'"):
+            world.attach_board("middle")
+        world.attach_board("left")
+        with pytest.raises(ValueError, match="mounted on the left arm already"):
+            world.attach_board("right")
+        assert len(detect(DEFAULT_BOARD, world.capture().color).ids) == 0  # at home the board is out of view
+        home = np.asarray(world.geometry.robot.arms["left"].home)
+        q = calibration_plan(world.geometry, "left", home, poses=12)[0]
+        world.arms["left"].reset(q, world.geometry.gripper.max_opening)
+        assert len(detect(DEFAULT_BOARD, world.capture().color).ids) >= 6

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pg_sim.robot.kinematics import arm_branch, down_pose, tcp_fk
+from pg_core.kinematics import arm_branch, down_pose, tcp_fk
 from pg_sim.robot.urdf_builder import ARMS
 
 POS_TOL = 2e-3  # m

@@ -1,7 +1,7 @@
 """The one robot URDF (DESIGN.md section 3): generated from the geometry config, committed, and exactly the DH model.
 
 Checks the committed file against `build_urdf(load())`, its structure (names, limits, masses, inertias, DH joint
-origins, gripper, camera frames), PyBullet forward kinematics against `pg_sim.robot.kinematics.dh_fk` on random
+origins, gripper, camera frames), PyBullet forward kinematics against `pg_core.kinematics.dh_fk` on random
 configurations, and that the camera sees only the table with the arms at home.
 """
 
@@ -17,8 +17,8 @@ import pybullet as p
 import pytest
 from scipy.spatial.transform import Rotation
 
+from pg_core.kinematics import arm_base_pose, dh_fk, rpy_matrix
 from pg_sim.robot import urdf_builder
-from pg_sim.robot.kinematics import arm_base_pose, dh_fk, rpy_matrix
 from pg_sim.robot.urdf_builder import ARM_LINKS, ARMS, build_urdf
 
 POS_TOL = 1e-3  # m
@@ -321,7 +321,7 @@ def test_camera_sees_only_the_table_with_arms_at_home(urdf_robot):
 
 
 def test_rpy_round_trip():
-    from pg_sim.robot.kinematics import matrix_rpy
+    from pg_core.kinematics import matrix_rpy
 
     rng = np.random.default_rng(3)
     for _ in range(100):

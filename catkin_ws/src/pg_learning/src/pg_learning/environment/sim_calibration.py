@@ -37,10 +37,11 @@ class SimCalibration:
 
 def calibrate_camera(world: World, poses: int = 12, arm: str = "left") -> SimCalibration:
     """Calibrate `world`'s camera (module docstring); the world's camera is left as it was."""
+    from pg_core.calibration_poses import board_poses, solve_tool, tool_targets
+    from pg_core.kinematics import tool_fk
     from pg_policy.perception.charuco import DEFAULT_BOARD, detect
     from pg_policy.perception.hand_eye import View, depth_pairs, fit_depth, solve
-    from pg_sim.robot.kinematics import tool_fk
-    from pg_sim.world.calibration_board import SimBoard, board_poses, solve_tool, tool_targets
+    from pg_sim.world.calibration_board import SimBoard
 
     spec = DEFAULT_BOARD
     cam, driver = world.camera, world.arms[arm]

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from pg_core.geometry import Geometry
-from pg_sim.robot.kinematics import arm_base_pose, down_pose
-from pg_sim.robot.ur_ik import closest, ik_all
+from pg_core.kinematics import arm_base_pose, down_pose
+from pg_core.ur_ik import closest, ik_all
 
 
 class IkSolver:

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pg_sim.robot.kinematics import matrix_rpy, rpy_matrix
+from pg_core.kinematics import matrix_rpy, rpy_matrix
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ Units: metres, radians, kilograms. Frames (DESIGN.md section 3):
 - ``<arm>_base_link`` (arm in left, right) at ``robot.arms.<arm>.xyz/rpy``; it IS DH frame 0.
   Every arm link frame is a DH frame: joint 1 has the identity origin and joint i+1 the origin
   ``xyz="a_i 0 d_i" rpy="alpha_i 0 0"`` in link i, all axes z, so ``<arm>_tool0`` is DH frame 6 and the URDF zero
-  configuration is the DH zero configuration (``pg_sim.robot.kinematics.dh_fk`` is exact for this file).
+  configuration is the DH zero configuration (``pg_core.kinematics.dh_fk`` is exact for this file).
 - Gripper (2F-85-like) on tool0: ``<arm>_gripper_palm_link`` (frame = tool0), two independent prismatic fingers
   ``<arm>_gripper_finger1_joint`` (+x of tool0) and ``<arm>_gripper_finger2_joint`` (-x), each in
   [0, max_opening / 2], opening = q1 + q2 (0 = closed, inner faces touching at x = 0). No ``<mimic>``: the sim
@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 
 from pg_core import geometry as geometry_mod
-from pg_sim.robot.kinematics import matrix_rpy, transform
+from pg_core.kinematics import matrix_rpy, transform
 from pg_sim.robot.link_shapes import Shape, box, composite_inertia, principal_axes, segment
 
 ARMS = ("left", "right")

@@ -21,6 +21,8 @@ in (default: the scene folders, $ROS_HOME/pg_sim/scenes, the pushgrasp cache and
 pg_sim.scenes.scene_folders).
 ~sensor ("perfect"): the camera's sensor profile (pg_sim.world.sensor_model: perfect, d435, d415 or a YAML path),
 seeded with ~seed; an unknown one stops the node at start-up with the known ones listed.
+~calibration_board (""): an arm name ("left", "right") mounts the printed ChArUco board
+(pg_core.charuco_board.DEFAULT_BOARD) on that arm's tool, as launch/calibrate.launch needs it; visual only.
 """
 
 from __future__ import annotations
@@ -82,6 +84,7 @@ def config() -> RuntimeConfig:
         idle_real_time_factor=float(rospy.get_param("~idle_real_time_factor", d.idle_real_time_factor)),
         limits=limits(), scene_folders=scene_folders(),
         rest_timeout=float(rospy.get_param("~rest_timeout", d.rest_timeout)),
+        calibration_board=str(rospy.get_param("~calibration_board", d.calibration_board)),
     )
 
 

@@ -128,3 +128,4 @@ class RuntimeConfig:
     limits: SceneLimits = DEFAULT_LIMITS
     scene_folders: tuple[str, ...] = ()
     rest_timeout: float = REST_TIMEOUT
+    calibration_board: str = ""  # an arm name: the ChArUco board is mounted on its tool (World.attach_board)

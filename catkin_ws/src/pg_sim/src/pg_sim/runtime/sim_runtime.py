@@ -25,8 +25,6 @@ the table (z < FALLEN_Z) is frozen there (made static) so it does not fall forev
 
 from __future__ import annotations
 
-import ctypes
-import ctypes.util
 import queue
 import textwrap
 import time
@@ -36,7 +34,9 @@ import numpy as np
 import pybullet as p
 
 from pg_core.geometry import Geometry
-from pg_sim.robot.trajectory import JointTrajectory, TrajectoryError, TrajectoryFollower
+from pg_sim.robot.trajectory import JointTrajectory, TrajectoryError
+from pg_sim.runtime.arm_channel import ArmChannel
+from pg_sim.runtime.heap_trim import release_free_memory
 from pg_sim.runtime.reset_request import resolve_reset
 from pg_sim.runtime.runtime_types import (
     CameraCapture,
@@ -69,29 +69,6 @@ CAMERA_REUSE_MAX = 5.0   # s: an unchanged scene re-uses its last render for at 
 MAX_MESSAGE = 600        # characters: longest reset answer (longer ones are cut)
 
 
-class _Arm:
-    def __init__(self, name: str, runtime: SimRuntime) -> None:
-        world, geo = runtime.world, runtime.geometry
-        self.name = name
-        self.driver = world.arms[name]
-        self.joint_names = tuple(f"{name}_{j}" for j in geo.robot.joint_names)
-        self.finger_names = (f"{name}_gripper_finger1_joint", f"{name}_gripper_finger2_joint")
-        self.follower = TrajectoryFollower(self.joint_names, np.asarray(geo.robot.arms[name].home),
-                                           geo.robot.joint_velocity_limit, geo.robot.joint_lower,
-                                           geo.robot.joint_upper, prefix=f"{name}_")
-        self.settle_until = -1.0
-        self.tracking = False  # a trajectory was given and its settling has not started yet
-        self.gripper_target = geo.gripper.max_opening
-        self.gripper_time = -np.inf
-
-    def home(self, q: np.ndarray, opening: float) -> None:
-        self.follower.stop(hold=q)
-        self.settle_until = -1.0
-        self.tracking = False
-        self.gripper_target = opening
-        self.gripper_time = -np.inf
-
-
 class SimRuntime:
     """See the module docstring. Construct, then call `step()` in a loop from one thread; `close()` at the end."""
 
@@ -106,7 +83,7 @@ class SimRuntime:
         self.worlds_built = 1  # worlds this runtime has made (the first one included)
         self.geometry = self.world.geometry
         self.pacer = pacer or Pacer(cfg.real_time_factor, cfg.idle_real_time_factor)
-        self.arms = {name: _Arm(name, self) for name in self.geometry.robot.arms}
+        self.arms = {name: ArmChannel(name, self.world, self.geometry) for name in self.geometry.robot.arms}
         self.commands_: queue.SimpleQueue[tuple] = queue.SimpleQueue()
         self.frozen_: set[int] = set()
         self.marker_parts_: dict[int, list[MarkerPart]] = {}
@@ -343,7 +320,14 @@ class SimRuntime:
     def _make_world(self, geometry: Geometry | None, gui: bool) -> World:
         """A world as this runtime's config asks for (the first one and every renewal: one place for the
         arguments)."""
-        return World(geometry, gui=gui, time_step=self.config.time_step)
+        world = World(geometry, gui=gui, time_step=self.config.time_step)
+        if self.config.calibration_board:
+            try:
+                world.attach_board(self.config.calibration_board)
+            except Exception:
+                world.close()
+                raise
+        return world
 
     def _renew_world(self) -> None:
         """Replace the world by a new one holding the present objects at their present poses (loaded, not
@@ -360,10 +344,10 @@ class SimRuntime:
             world.close()
             raise
         old.close()
-        _release_free_memory()
+        release_free_memory()
         self.world = world
         self.worlds_built += 1
-        self.arms = {name: _Arm(name, self) for name in self.geometry.robot.arms}
+        self.arms = {name: ArmChannel(name, self.world, self.geometry) for name in self.geometry.robot.arms}
         robot = world.robot
         self.joint_indices_ = [j for a in robot.arms.values() for j in (*a.joints, *a.fingers)]
         self.frozen_.clear()
@@ -430,16 +414,3 @@ class SimRuntime:
                 p.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=c)
                 p.changeDynamics(body, -1, mass=0.0, physicsClientId=c)  # static from now on
                 self.frozen_.add(body)
-
-
-def _release_free_memory() -> None:
-    """Give the pages that the C heap holds free back to the system (glibc ``malloc_trim``; nothing elsewhere):
-    a closed world frees tens of MB in pieces that the next world re-uses only in part."""
-    name = ctypes.util.find_library("c")
-    try:
-        libc = ctypes.CDLL(name)
-        trim = libc.malloc_trim
-    except (OSError, AttributeError, TypeError):
-        return
-    trim.argtypes = [ctypes.c_size_t]
-    trim(0)

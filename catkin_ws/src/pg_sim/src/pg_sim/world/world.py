@@ -21,6 +21,7 @@ import numpy as np
 import pybullet as p
 
 from pg_core import heightmap as hm
+from pg_core.charuco_board import DEFAULT_BOARD, BoardSpec
 from pg_core.geometry import Geometry, load
 from pg_sim.robot.arm_driver import ArmDriver
 from pg_sim.robot.ik import IkSolver
@@ -28,6 +29,7 @@ from pg_sim.robot.robot_model import load_robot
 from pg_sim.scenes.meshes import collision_file
 from pg_sim.scenes.objects import build_shape, object_pose, spawn_object
 from pg_sim.scenes.scene import ObjectSpec, SceneSpec
+from pg_sim.world.calibration_board import SimBoard
 from pg_sim.world.camera import Frame, SimCamera
 from pg_sim.world.sensor_model import PERFECT, SensorProfile, make_sensor
 from pg_sim.world.sim_mode import DEFAULT_SIM_MODE, SimMode, get_sim_mode
@@ -97,10 +99,14 @@ class World:
         self.bodies_created = 0  # objects spawned since construction (removed ones included)
         self.target_id: int | None = None
         self.scene: SceneSpec | None = None
+        self.board: SimBoard | None = None  # a calibration board on a tool (attach_board)
         self.home()
 
     # -- lifecycle ---------------------------------------------------------------------------------------------
     def close(self) -> None:
+        if self.board is not None:
+            self.board.remove()
+            self.board = None
         self.ik.close()
         if p.isConnected(self.client):
             p.disconnect(self.client)
@@ -201,7 +207,21 @@ class World:
                          objects=objs, family=base.family if base else "snapshot")
 
     # -- sensing -----------------------------------------------------------------------------------------------
+    def attach_board(self, arm: str, spec: BoardSpec = DEFAULT_BOARD) -> SimBoard:
+        """Mount the printed calibration board `spec` on `arm`'s tool (pg_core.calibration_poses.board_mount):
+        every later capture shows it where the arm holds it (visual only: nothing collides with it). Raises
+        ValueError for an unknown arm or when a board is mounted already."""
+        if arm not in self.arms:
+            raise ValueError(f"calibration board: unknown arm {arm!r}; the arms are {', '.join(self.arms)}")
+        if self.board is not None:
+            raise ValueError(f"calibration board: one is mounted on the {self.board.arm} arm already")
+        self.board = SimBoard(self.client, self.geometry, self.robot.body, self.robot.arms[arm].tool0, arm,
+                              spec.image(4000.0), spec.printed_size_m)
+        return self.board
+
     def capture(self) -> Frame:
+        if self.board is not None:
+            self.board.follow()
         return self.camera.capture()
 
     def observe(self) -> Observation:

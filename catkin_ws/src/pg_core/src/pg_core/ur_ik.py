@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from pg_sim.robot.kinematics import dh_fk, dh_transform
+from pg_core.kinematics import dh_fk, dh_transform
 
 
 def _wrap(q: float) -> float:
