@@ -118,6 +118,13 @@ def run(ctx: Context, res: ProbeResult) -> None:
         slopes[nm] = slope
         rss_table.rows.append([nm, start_rss.get(nm), warm_rss.get(nm), end_rss.get(nm),
                                None if slope is None else round(slope, 2), len(after)])
+    names = sorted(samples)
+    every = max(1, calls // 20)
+    series = res.table(f"Resident memory (MB) every {every} calls", ["call", *names])
+    at = {nm: dict(samples[nm]) for nm in names}
+    for i in sorted({x for nm in names for x, _ in samples[nm]}):
+        if i % every == 0 or i == calls:
+            series.rows.append([i, *(round(at[nm][i], 1) if i in at[nm] else None for nm in names)])
     by_msg = res.table("Outcomes by message", ["message", "calls"])
     by_msg.rows += [[k, v] for k, v in outcomes.most_common()]
     res.figures.update({"calls": calls, "successes": successes, "success rate": round(successes / calls, 3)

@@ -28,17 +28,22 @@ PRESERVED = ["rotate_inputs", "q_from_rotated", "rotate_inputs_window", "q_from_
              "use_mask", "num_rotations", "exact_margin", "config_json"]
 
 
-_M_TRIM_THRESHOLD, _M_MMAP_MAX = -1, -4  # glibc mallopt parameters
+_M_TRIM_THRESHOLD, _M_MMAP_MAX, _M_ARENA_MAX = -1, -4, -8  # glibc mallopt parameters
+MALLOC_ARENAS = 2  # keep_freed_memory's cap on glibc malloc arenas
 
 
 def keep_freed_memory() -> bool:
     """glibc only: serve every allocation from the heap and never give freed memory back to the OS (mallopt
     M_MMAP_MAX = 0, M_TRIM_THRESHOLD = max). Batched DenseNet activations (100+ MB each at 16 x 320 x 320) are
     otherwise mmap'ed and page-faulted anew on every call: measured 315 -> 170 ms per image at batch 16 (1 thread).
-    Process-wide; the process keeps its peak memory. Returns False where glibc's mallopt is unavailable."""
+    Also at most MALLOC_ARENAS malloc arenas (M_ARENA_MAX): with trimming off every arena keeps its peak, and a
+    ROS node serves each service connection on a new thread, which glibc gives a new arena up to 8 per core (the
+    policy node grew 220 MB per 100 grasp_target calls that way). Process-wide; the process keeps its peak memory.
+    Returns False where glibc's mallopt is unavailable."""
     try:
         libc = ctypes.CDLL("libc.so.6")
-        return bool(libc.mallopt(_M_MMAP_MAX, 0)) and bool(libc.mallopt(_M_TRIM_THRESHOLD, 2**31 - 1))
+        return (bool(libc.mallopt(_M_MMAP_MAX, 0)) and bool(libc.mallopt(_M_TRIM_THRESHOLD, 2**31 - 1))
+                and bool(libc.mallopt(_M_ARENA_MAX, MALLOC_ARENAS)))
     except (OSError, AttributeError):
         return False
 
