@@ -85,19 +85,19 @@ class HandEyeSession:
         self.k = k
         self.min_views = min_views
         self.views: list[View] = []
+        self.missed: list[View] = []  # captures that showed fewer than 6 corners (counted in a refusal)
 
     def add(self, world_tool: np.ndarray, color: np.ndarray, depth: np.ndarray | None) -> int:
         """Detect the board in `color` and keep the view when it shows >= 6 corners; returns the corners found."""
         det = detect(DEFAULT_BOARD, color)
-        if len(det.ids) >= 6:
-            self.views.append(View(world_tool, det, depth))
+        (self.views if len(det.ids) >= 6 else self.missed).append(View(world_tool, det, depth))
         return len(det.ids)
 
     def solve(self, out: str) -> str:
         """Solve, write `out`, and return the summary; raises CalibrationFailed (nothing written)."""
         if self.k is None:
             raise CalibrationFailed("no camera_info received: the intrinsics are unknown")
-        result = solve(self.views, DEFAULT_BOARD, self.k, self.min_views)
+        result = solve(self.views + self.missed, DEFAULT_BOARD, self.k, self.min_views)
         table = next((v.depth for v in self.views if v.depth is not None), None)
         depth = fit_depth(depth_pairs(result, self.views, table, self.k, DEFAULT_BOARD)) if table is not None else None
         write_calibration(out, result, depth)
@@ -243,6 +243,7 @@ def main() -> None:
                                               f"{arm} arm's present joints with a clear path; {min_views} are "
                                               "needed: nothing moved")
             session.views.clear()
+            session.missed.clear()
             try:
                 report = run_tour(plan, start, mover.move, settled_capture,
                                   lambda line: rospy.loginfo(f"hand_eye_calibration: {line}"))
