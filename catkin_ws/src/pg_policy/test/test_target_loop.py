@@ -181,3 +181,19 @@ def test_cancel_is_checked_between_actions():
     loop, _, ex, _ = make([(True, False, False)], primitive="push")
     res = loop.run("green", cancelled=lambda: len(ex.calls) >= 2)
     assert not res.success and res.message == "cancelled" and len(ex.calls) == 2 and res.pushes == 2
+
+
+def test_every_call_gives_the_free_heap_back(monkeypatch):
+    """A serving node keeps freed memory (keep_freed_memory): after each run and infer, also a failed one, the free
+    heap goes back to the system, so the node's RSS does not stay at the largest peak a call reached."""
+    from pg_policy.target_loop import target_loop
+
+    trims = []
+    monkeypatch.setattr(target_loop, "release_free_memory", lambda: trims.append(1))
+    make([(True, True, True)])[0].run("green")
+    assert len(trims) == 1
+    make([(True, True, True)])[0].infer("green")
+    assert len(trims) == 2
+    with pytest.raises(LoopError):
+        make([(True, True, True)])[0].run("nocolour")
+    assert len(trims) == 3

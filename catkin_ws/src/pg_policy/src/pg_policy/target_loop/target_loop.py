@@ -32,7 +32,8 @@ primitive is given what is left of the budget, at least 1 s).
 
 Threads: every policy computation (reset, act, q_maps) of a TargetLoop runs on its one worker thread
 (pg_policy.target_loop.worker.PinnedThread) whichever thread calls run/infer/decide, so that the nets' buffers
-live in one malloc arena (the node's RSS stays flat over calls; see that module).
+live in one malloc arena (see that module); after each run and infer the free heap goes back to the system
+(pg_core.heap_trim), so the node's RSS does not stay at the largest peak a call reached.
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from pg_core.heap_trim import release_free_memory
 from pg_core.heightmap import Heightmap
 from pg_core.palette import normalize_name
 from pg_core.target_mask import MIN_VISIBLE_CELLS, hsv_window, target_mask
@@ -311,7 +313,10 @@ class TargetLoop:
 
     def infer_on(self, target: str | TargetSpec, shm: StampedHeightmap) -> ActionRecord:
         """The decision on `shm` with no memory of earlier decisions (policy reset; nothing executed)."""
-        return self.worker.call(self._infer_on, as_spec(target), shm)
+        try:
+            return self.worker.call(self._infer_on, as_spec(target), shm)
+        finally:
+            release_free_memory()
 
     def _infer_on(self, spec: TargetSpec, shm: StampedHeightmap) -> ActionRecord:
         self.policy.reset(0)
@@ -325,7 +330,10 @@ class TargetLoop:
         pg_policy.target_loop.episode). `cancelled` is asked between actions (a running primitive always finishes);
         True ends the call with message "cancelled". A scene reset (see the class) ends it with RESET_MESSAGE; a
         target that left the workspace with "target lost: <why>"."""
-        return self.worker.call(self._run, as_spec(target), limits or LoopLimits(), cancelled)
+        try:
+            return self.worker.call(self._run, as_spec(target), limits or LoopLimits(), cancelled)
+        finally:
+            release_free_memory()
 
     def _episode(self, target: str, limits: LoopLimits) -> Episode:
         return Episode(Limits(limits.max_actions, limits.max_failed_grasps), target=target,

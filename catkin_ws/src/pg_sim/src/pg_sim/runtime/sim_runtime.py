@@ -34,9 +34,9 @@ import numpy as np
 import pybullet as p
 
 from pg_core.geometry import Geometry
+from pg_core.heap_trim import release_free_memory
 from pg_sim.robot.trajectory import JointTrajectory, TrajectoryError
 from pg_sim.runtime.arm_channel import ArmChannel
-from pg_sim.runtime.heap_trim import release_free_memory
 from pg_sim.runtime.reset_request import resolve_reset
 from pg_sim.runtime.runtime_types import (
     CameraCapture,
@@ -315,6 +315,7 @@ class SimRuntime:
             self._renew_world()
         result = swap_scene(self.world, scene, generated, self.config.rest_timeout)
         self._after_scene_change()
+        release_free_memory()  # a scene's peak (meshes, settling) does not stay resident until the next renewal
         return result
 
     def _make_world(self, geometry: Geometry | None, gui: bool) -> World:
