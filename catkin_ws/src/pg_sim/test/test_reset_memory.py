@@ -1,5 +1,6 @@
 """The simulator's memory stays flat across resets: objects share their PyBullet shapes per shape key, and the
-runtime replaces a worn world (pg_sim.world.world, pg_sim.runtime.sim_runtime). The long form of the measurement
+runtime starts every reset from a new world (pg_sim.world.world, pg_sim.runtime.sim_runtime), which also makes a
+(scene, seed) settle the same whatever ran before. The long form of the measurement
 is `python3 -m pg_sim.runtime.reset_soak memory --resets 500` (docs/RELIABILITY.md)."""
 
 from __future__ import annotations
@@ -13,7 +14,6 @@ from pg_sim.runtime.runtime_types import ResetRequest
 from pg_sim.runtime.sim_runtime import SimRuntime
 from pg_sim.scenes.colors import resolve_color
 from pg_sim.scenes.scene import ObjectSpec
-from pg_sim.world import world as world_module
 from pg_sim.world.world import World, shape_key
 
 MAX_SLOPE = 5.0  # MB per 100 resets after the warm-up
@@ -45,25 +45,37 @@ def test_objects_of_one_key_share_their_shapes_and_keep_their_own_colours():
         assert mass[b] == 0.2 and mass[a] == mass[c] != 0.2  # a shared shape, a mass of its own
 
 
-def test_a_worn_world_is_replaced_at_the_next_reset_and_sim_time_carries_on(monkeypatch):
-    monkeypatch.setattr(world_module, "RENEW_BODIES", 20)
+def test_every_reset_starts_from_a_new_world_and_sim_time_carries_on():
     with SimRuntime(quiet_config(scene="packed/case01")) as rt:
         first = rt.world
-        assert rt.reset(ResetRequest("random", 12, 1000001)).success
-        assert rt.world is first and rt.world.worn
         t = rt.sim_time
-        result = rt.reset(ResetRequest("random", 10, 1000002))  # renews, then loads
+        result = rt.reset(ResetRequest("random", 10, 1000002))
         assert result.success, result.message
         assert rt.world is not first and rt.worlds_built == 2 and rt.sim_time > t
-        assert not p.isConnected(first.client)  # the worn world is closed
+        assert not p.isConnected(first.client)  # the old world is closed
         rt.run_for(0.1)
         assert rt.joint_state().positions.shape == (len(rt.joint_names),)
         state = rt.scene_state()
         assert state.target_in_workspace and len(state.objects) == 10
 
 
-def test_a_refused_reset_after_a_renewal_keeps_the_scene(monkeypatch):
-    monkeypatch.setattr(world_module, "RENEW_BODIES", 0)
+def test_a_scene_and_seed_settle_the_same_whatever_ran_before():
+    """A used world keeps its broadphase history: the same (scene, seed) settled differently after other scenes."""
+    def poses(rt):
+        return {o.name: np.asarray(o.position) for o in rt.scene_state().objects}
+
+    with SimRuntime(quiet_config(scene="packed/case01")) as rt:
+        assert rt.reset(ResetRequest("random", 15, 1000014)).success
+        first = poses(rt)
+        for seed in (1000001, 1000002, 1000003):
+            rt.reset(ResetRequest("random", 12, seed))
+        assert rt.reset(ResetRequest("random", 15, 1000014)).success
+        again = poses(rt)
+    assert again.keys() == first.keys()
+    assert max(float(np.abs(again[k] - first[k]).max()) for k in first) < 1e-9
+
+
+def test_a_refused_reset_keeps_the_scene(monkeypatch):
     with SimRuntime(quiet_config(scene="packed/case01")) as rt:
         result = rt.reset(ResetRequest("random", 10, 1000002))
         assert result.success

@@ -9,9 +9,10 @@
   limits, allowed folders: pg_sim.runtime.reset_request) and answering success only once the scene is at rest with
   its target in the workspace (pg_sim.runtime.scene_swap); a refused reset changes nothing; a reset while an arm
   executes a trajectory is refused ("busy"); ``scene_resets`` counts the successful resets;
-- replaces its world by a new one at the start of a reset once the world is worn (pg_sim.world.world: PyBullet
-  frees the memory of shapes and removed bodies only with the world), so its memory stays flat across resets; the
-  new world holds the same objects at the same poses and sim time carries on (not with ``gui``: one window);
+- starts every reset from a new world (pg_sim.world.world: PyBullet frees the memory of shapes and removed bodies
+  only with the world, and a used world's broadphase history changes how a scene settles), so its memory stays flat
+  across resets and a (scene, seed) gives the same scene every time; sim time carries on; a refused reset puts
+  the previous objects back in the new world (not with ``gui``: one window, reused);
 - paces sim time against wall time (`Pacer`): as fast as possible (or at most ``real_time_factor``) while something
   moves, ``idle_real_time_factor`` (default real time) while nothing does, so an idle sim sleeps.
 
@@ -311,11 +312,19 @@ class SimRuntime:
                 messages.append(f"{arm} {kind} command refused: {e}")
 
     def _apply_reset(self, scene: SceneSpec, generated: bool) -> ResetResult:
-        if self.world.worn and not self.config.gui:
+        """A reset starts from a new, empty world unless the world is still unused (the first reset) or ``gui`` is on
+        (one window): a (scene, seed) then settles the same whatever ran before (a used world keeps its broadphase
+        history), and the memory PyBullet keeps of removed bodies and shapes goes with the old world. A refused
+        reset gets the previous objects back, at their poses, in the new world."""
+        previous = None
+        if not self.config.gui and self.world.bodies_created > 0:
+            previous = self.world.snapshot() if self.world.scene is not None else None
             self._renew_world()
         result = swap_scene(self.world, scene, generated, self.config.rest_timeout)
+        if not result.success and previous is not None:
+            self.world.load_scene(previous, settle=False)
         self._after_scene_change()
-        release_free_memory()  # a scene's peak (meshes, settling) does not stay resident until the next renewal
+        release_free_memory()  # a scene's peak (meshes, settling) does not stay resident
         return result
 
     def _make_world(self, geometry: Geometry | None, gui: bool) -> World:
@@ -331,19 +340,11 @@ class SimRuntime:
         return world
 
     def _renew_world(self) -> None:
-        """Replace the world by a new one holding the present objects at their present poses (loaded, not
-        settled: as a refused reset restores them) and the same sim time; arms are homed by the reset that follows.
+        """Replace the world by a new, empty one with the same sim time; arms are homed by the reset that follows.
         Raises what World raises, the old world kept."""
         old = self.world
-        previous = old.snapshot() if old.scene is not None else None
         world = self._make_world(self.geometry, False)
-        try:
-            world.sim_time = old.sim_time
-            if previous is not None:
-                world.load_scene(previous, settle=False)
-        except Exception:
-            world.close()
-            raise
+        world.sim_time = old.sim_time
         old.close()
         release_free_memory()
         self.world = world

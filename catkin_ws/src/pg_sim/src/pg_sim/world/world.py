@@ -7,8 +7,7 @@ Memory: PyBullet returns the memory of a collision or visual shape only when its
 (``removeCollisionShape`` keeps most of it; visual shapes cannot be removed), and keeps about 6 KB of every body
 after ``removeBody``. Objects therefore share their shapes: a world builds the shapes of a `shape_key` once and
 every later object of that key reuses them (PyBullet shares a shape between bodies; colour, mass and friction are
-per body). A world that has created more than RENEW_BODIES bodies or holds more than RENEW_SHAPES shape sets is
-`worn`: an owner that loads scenes for a long time (pg_sim.runtime.sim_runtime) then replaces it by a new world,
+per body). An owner that loads scenes for a long time (pg_sim.runtime.sim_runtime) starts each from a new world,
 which frees all of it.
 """
 
@@ -34,9 +33,6 @@ from pg_sim.world.camera import Frame, SimCamera
 from pg_sim.world.sensor_model import PERFECT, SensorProfile, make_sensor
 from pg_sim.world.sim_mode import DEFAULT_SIM_MODE, SimMode, get_sim_mode
 from pg_sim.world.static_table import detach_table
-
-RENEW_BODIES = 500  # bodies created after which a world is worn (about 3 MB that PyBullet keeps)
-RENEW_SHAPES = 100  # shape sets (one per shape_key) held after which a world is worn (tens of KB to MBs each)
 
 ShapeKey = tuple[object, ...]
 ShapeIds = tuple[int, int, float]  # collision id, visual id, mass (kg) as pg_sim.scenes.objects.build_shape
@@ -116,12 +112,6 @@ class World:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-    @property
-    def worn(self) -> bool:
-        """True once this world has created more than RENEW_BODIES objects or holds more than RENEW_SHAPES shape
-        sets: memory that PyBullet frees only with the world (module docstring)."""
-        return self.bodies_created > RENEW_BODIES or len(self.shapes_) > RENEW_SHAPES
 
     def step(self) -> float:
         p.stepSimulation(physicsClientId=self.client)
