@@ -17,6 +17,7 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
+from pg_core.heap_trim import NODE_ARENAS, cap_arenas
 from pg_core.heightmap import Heightmap
 from pg_policy.models.model_io import ModelLoadError, load_qnet
 from pg_policy.models.nets.lite_window import LiteWindowQ, supports_windows, windowed_q
@@ -28,8 +29,8 @@ PRESERVED = ["rotate_inputs", "q_from_rotated", "rotate_inputs_window", "q_from_
              "use_mask", "num_rotations", "exact_margin", "config_json"]
 
 
-_M_TRIM_THRESHOLD, _M_MMAP_MAX, _M_ARENA_MAX = -1, -4, -8  # glibc mallopt parameters
-MALLOC_ARENAS = 2  # keep_freed_memory's cap on glibc malloc arenas
+_M_TRIM_THRESHOLD, _M_MMAP_MAX = -1, -4  # glibc mallopt parameters
+MALLOC_ARENAS = NODE_ARENAS  # keep_freed_memory's cap on glibc malloc arenas
 
 
 def keep_freed_memory() -> bool:
@@ -43,7 +44,7 @@ def keep_freed_memory() -> bool:
     try:
         libc = ctypes.CDLL("libc.so.6")
         return (bool(libc.mallopt(_M_MMAP_MAX, 0)) and bool(libc.mallopt(_M_TRIM_THRESHOLD, 2**31 - 1))
-                and bool(libc.mallopt(_M_ARENA_MAX, MALLOC_ARENAS)))
+                and cap_arenas(MALLOC_ARENAS))
     except (OSError, AttributeError):
         return False
 

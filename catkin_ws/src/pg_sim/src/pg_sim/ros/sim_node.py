@@ -38,6 +38,7 @@ from std_msgs.msg import Float64, UInt32
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
+from pg_core.heap_trim import cap_arenas
 from pg_core.user_text import cut
 from pg_sim.ros import ros_conversions as conv
 from pg_sim.runtime.runtime_types import RuntimeConfig
@@ -89,6 +90,7 @@ def config() -> RuntimeConfig:
 
 
 def main() -> int:
+    cap_arenas()  # before rospy's threads: they would each keep an arena's free memory
     rospy.init_node("pg_sim", disable_signals=False)
     clock_pub = rospy.Publisher("/clock", Clock, queue_size=10)
     try:
