@@ -47,3 +47,5 @@ def test_a_board_attached_to_the_world_follows_the_arm_into_every_capture():
         q = calibration_plan(world.geometry, "left", home, poses=12)[0]
         world.arms["left"].reset(q, world.geometry.gripper.max_opening)
         assert len(detect(DEFAULT_BOARD, world.capture().color).ids) >= 6
+        world.detach_board()
+        assert world.board is None and len(detect(DEFAULT_BOARD, world.capture().color).ids) == 0

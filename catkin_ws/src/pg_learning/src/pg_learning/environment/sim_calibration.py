@@ -41,14 +41,12 @@ def calibrate_camera(world: World, poses: int = 12, arm: str = "left") -> SimCal
     from pg_core.kinematics import tool_fk
     from pg_policy.perception.charuco import DEFAULT_BOARD, detect
     from pg_policy.perception.hand_eye import View, depth_pairs, fit_depth, solve
-    from pg_sim.world.calibration_board import SimBoard
 
     spec = DEFAULT_BOARD
     cam, driver = world.camera, world.arms[arm]
     home = np.asarray(world.geometry.robot.arms[arm].home, dtype=np.float64)
     table_depth = cam.capture().depth  # both arms at home: the camera sees the table alone
-    board = SimBoard(world.client, world.geometry, world.robot.body, world.robot.arms[arm].tool0, arm,
-                     spec.image(4000.0), spec.printed_size_m)
+    board = world.attach_board(arm, spec)
     try:
         seed_q, views = home, []
         for target in tool_targets(board_poses(poses), board.mount):
@@ -64,6 +62,6 @@ def calibrate_camera(world: World, poses: int = 12, arm: str = "left") -> SimCal
         result = solve(views, spec, cam.intrinsics)
         depth_fit = fit_depth(depth_pairs(result, views, table_depth, cam.intrinsics, spec))
     finally:
-        board.remove()
+        world.detach_board()
         driver.reset(home, world.geometry.gripper.max_opening)
     return SimCalibration(result, depth_fit, cam.render_pose.copy(), cam.pose.copy())

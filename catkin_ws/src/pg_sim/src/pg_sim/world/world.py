@@ -100,9 +100,7 @@ class World:
 
     # -- lifecycle ---------------------------------------------------------------------------------------------
     def close(self) -> None:
-        if self.board is not None:
-            self.board.remove()
-            self.board = None
+        self.detach_board()
         self.ik.close()
         if p.isConnected(self.client):
             p.disconnect(self.client)
@@ -208,6 +206,12 @@ class World:
         self.board = SimBoard(self.client, self.geometry, self.robot.body, self.robot.arms[arm].tool0, arm,
                               spec.image(4000.0), spec.printed_size_m)
         return self.board
+
+    def detach_board(self) -> None:
+        """Remove the mounted calibration board (nothing when none is mounted)."""
+        if self.board is not None:
+            self.board.remove()
+            self.board = None
 
     def capture(self) -> Frame:
         if self.board is not None:
