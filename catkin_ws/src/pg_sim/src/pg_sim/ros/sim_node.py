@@ -38,7 +38,7 @@ from std_msgs.msg import Float64, UInt32
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
-from pg_core.heap_trim import cap_arenas
+from pg_core.heap_trim import cap_arenas, map_large_blocks
 from pg_core.user_text import cut
 from pg_sim.ros import ros_conversions as conv
 from pg_sim.runtime.runtime_types import RuntimeConfig
@@ -49,6 +49,14 @@ from pg_sim.world.sensor_model import PERFECT, make_sensor
 CAMERA_TOPICS = {"color/image_raw": Image, "color/camera_info": CameraInfo,
                  "aligned_depth_to_color/image_raw": Image, "aligned_depth_to_color/camera_info": CameraInfo,
                  "depth/color/points": PointCloud2}
+
+
+def log(level: str, text: str) -> None:
+    """rospy's `level` ("loginfo", "logwarn", ...) of `text`. The node logs through this function, never from
+    main()'s loop: rosgraph's logger reads its caller frame's f_locals to name the caller's class, and on Python
+    3.11 that leaves a snapshot of every local on the frame, which for main() pins that moment's camera
+    capture and messages (about 13 MB) until the next log call."""
+    getattr(rospy, level)(text)
 
 
 def limits() -> SceneLimits:
@@ -91,13 +99,14 @@ def config() -> RuntimeConfig:
 
 def main() -> int:
     cap_arenas()  # before rospy's threads: they would each keep an arena's free memory
+    map_large_blocks()  # camera images and clouds: freed pages go back at once
     rospy.init_node("pg_sim", disable_signals=False)
     clock_pub = rospy.Publisher("/clock", Clock, queue_size=10)
     try:
         sensor = make_sensor(str(rospy.get_param("~sensor", PERFECT)), int(rospy.get_param("~seed", 0)))
         rt = SimRuntime(config())  # loads and settles the initial scene; validates it first
     except Exception as e:  # report any start-up failure clearly
-        rospy.logfatal(f"pg_sim: cannot start the simulation: {e}")
+        log("logfatal", f"pg_sim: cannot start the simulation: {e}")
         return 1
     rt.world.camera.use_sensor(sensor)
     clock_pub.publish(conv.clock(rt.sim_time))  # before anything that reads rospy time
@@ -131,15 +140,15 @@ def main() -> int:
     def on_reset(req):  # service thread: queue, then wait for the main loop's answer
         result = rt.submit_reset(conv.reset_request(req)).wait(reset_timeout)
         if result is not None:
-            (rospy.loginfo if result.success else rospy.logwarn)(
+            log("loginfo" if result.success else "logwarn",
                 f"pg_sim: reset_scene {cut(req.scene, quoted=True)}: {result.message}")
             if result.success:
                 publish_resets(result.resets)  # before the caller hears the answer
         return conv.reset_response(result, reset_timeout)
 
     service = rospy.Service("/pg_sim/reset_scene", ResetScene, on_reset)
-    rospy.loginfo(f"pg_sim: {rt.world.scene.name if rt.world.scene else '-'} loaded; "
-                  f"real_time_factor {rt.config.real_time_factor} busy / {rt.config.idle_real_time_factor} idle")
+    log("loginfo", f"pg_sim: {rt.world.scene.name if rt.world.scene else '-'} loaded; "
+        f"real_time_factor {rt.config.real_time_factor} busy / {rt.config.idle_real_time_factor} idle")
 
     cam_msgs: dict[str, object] = {}
     cam_seq = -1
@@ -164,7 +173,7 @@ def main() -> int:
             scene_pub.publish(conv.scene_state(out.scene_state, world_frame))
             marker_pub.publish(conv.markers(out.markers or [], out.sim_time, world_frame))
         for message in out.messages:
-            rospy.logwarn(f"pg_sim: {message}")
+            log("logwarn", f"pg_sim: {message}")
     service.shutdown()
     for s in subs:
         s.unregister()

@@ -315,13 +315,15 @@ class SimRuntime:
         """A reset starts from a new, empty world unless the world is still unused (the first reset) or ``gui`` is on
         (one window): a (scene, seed) then settles the same whatever ran before (a used world keeps its broadphase
         history), and the memory PyBullet keeps of removed bodies and shapes goes with the old world. A refused
-        reset gets the previous objects back, at their poses, in the new world."""
+        reset gets the previous objects back, at their poses, in another new world (the refused scene's bodies go
+        with the world that loaded them)."""
         previous = None
         if not self.config.gui and self.world.bodies_created > 0:
             previous = self.world.snapshot() if self.world.scene is not None else None
             self._renew_world()
         result = swap_scene(self.world, scene, generated, self.config.rest_timeout)
         if not result.success and previous is not None:
+            self._renew_world()
             self.world.load_scene(previous, settle=False)
         self._after_scene_change()
         release_free_memory()  # a scene's peak (meshes, settling) does not stay resident

@@ -100,8 +100,12 @@ class World:
 
     # -- lifecycle ---------------------------------------------------------------------------------------------
     def close(self) -> None:
+        """Disconnect the physics client. The arm drivers go too: each holds this world's `step`, a reference
+        cycle that would keep a closed world, its camera's last images included, until Python's cyclic garbage
+        collector happened to run (a node that renews its world every reset would hold a varying number)."""
         self.detach_board()
         self.ik.close()
+        self.arms.clear()
         if p.isConnected(self.client):
             p.disconnect(self.client)
 
