@@ -41,7 +41,8 @@ def test_rss_is_flat_over_calls_from_new_threads() -> None:
 
     from pg_core.heightmap import Heightmap
     from pg_policy.policies.registry import make_policy
-    from pg_policy.target_loop.target_loop import StampedHeightmap, TargetLoop
+    from pg_policy.target_loop.loop_types import StampedHeightmap
+    from pg_policy.target_loop.target_loop import TargetLoop
 
     arrays = np.load(GOLDEN / "decisions.npz")
     recs = json.loads((GOLDEN / "decisions.json").read_text())

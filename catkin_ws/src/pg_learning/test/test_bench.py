@@ -74,7 +74,7 @@ def test_the_bench_decides_as_the_learned_policy_without_rules(tmp_path):
     from pg_policy.models.nets import QNetConfig, build_qnet
     from pg_policy.policies.policy import PolicyOptions
     from pg_policy.policies.registry import make_policy
-    from pg_policy.target_loop.target_loop import PolicyObservation
+    from pg_policy.target_loop.loop_types import PolicyObservation
 
     for i, role in enumerate(("grasp", "push")):
         export_qnet(build_qnet(QNetConfig("lite", "mask"), seed=i), tmp_path / f"{role}.pt",

@@ -18,7 +18,7 @@ from pg_policy.decision.decision import Decision  # noqa: E402
 from pg_policy.policies.registry import make_policy  # noqa: E402
 from pg_policy.ros import convert  # noqa: E402
 from pg_policy.ros.bag_replay import BagError, replay  # noqa: E402
-from pg_policy.target_loop.target_loop import ActionRecord, Execution, PolicyObservation  # noqa: E402
+from pg_policy.target_loop.loop_types import ActionRecord, Execution, PolicyObservation  # noqa: E402
 
 
 def scene_heightmap(shift: int) -> Heightmap:

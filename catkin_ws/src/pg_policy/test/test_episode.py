@@ -17,7 +17,8 @@ from pg_core.seeds import MIN_EVAL_SEED, train_seed
 from pg_policy.target_loop import episode as E
 from pg_policy.target_loop.episode import Episode, Limits, Outcome, check_eval_seed, check_train_seed
 from pg_policy.target_loop.loop_limits import LoopLimits
-from pg_policy.target_loop.target_loop import LoopError, StampedHeightmap, TargetLoop
+from pg_policy.target_loop.loop_types import LoopError, StampedHeightmap
+from pg_policy.target_loop.target_loop import TargetLoop
 
 N = 224
 BOUNDS = np.array([[-0.224, 0.224], [-0.224, 0.224], [0.0, 0.4]])

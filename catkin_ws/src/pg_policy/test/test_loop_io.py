@@ -15,7 +15,8 @@ from test_target_loop import Clock, Policy, Source
 from pg_policy.decision.decision import Decision
 from pg_policy.ros.loop_io import ANSWER_MARGIN_S, ServiceExecutor, primitive_wait_s
 from pg_policy.target_loop.loop_limits import LoopLimits
-from pg_policy.target_loop.target_loop import LoopError, TargetLoop
+from pg_policy.target_loop.loop_types import LoopError
+from pg_policy.target_loop.target_loop import TargetLoop
 
 BUDGET_SLACK_S = 2.0  # a call answers within its budget plus this (wall s)
 DECISION = Decision("grasp", 4, 110, 110, 0.9, math.pi / 2, 0.01, -0.02, 0.02, 0.9)

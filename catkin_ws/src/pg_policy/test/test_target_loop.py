@@ -12,13 +12,8 @@ from pg_core.heightmap import Heightmap
 from pg_core.palette import palette_rgb
 from pg_policy.decision.decision import Decision
 from pg_policy.target_loop.loop_limits import LoopLimits
-from pg_policy.target_loop.target_loop import (
-    Execution,
-    LoopError,
-    NoHeightmap,
-    StampedHeightmap,
-    TargetLoop,
-)
+from pg_policy.target_loop.loop_types import Execution, LoopError, NoHeightmap, StampedHeightmap
+from pg_policy.target_loop.target_loop import TargetLoop
 
 N = 224
 

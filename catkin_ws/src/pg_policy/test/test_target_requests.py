@@ -12,7 +12,7 @@ from test_target_loop import make
 
 from pg_policy.ros import target_request as tr
 from pg_policy.target_loop.loop_limits import LoopLimits
-from pg_policy.target_loop.target_loop import LoopError, TargetRefused, as_spec, target_label
+from pg_policy.target_loop.loop_types import LoopError, TargetRefused, as_spec, target_label
 from pg_policy.target_loop.target_spec import ColourTarget, MaskTarget, PointTarget, TargetFollower
 
 WORKSPACE = np.array([[-0.224, 0.224], [-0.224, 0.224], [0.0, 0.4]])

@@ -69,8 +69,8 @@ from pg_learning.evaluation.errors import ERROR, mark_error
 from pg_learning.evaluation.target_by import COLOUR, TrialTarget, check_target_by
 from pg_policy.target_loop.episode import Episode, Limits, Outcome
 from pg_policy.target_loop.episode import check_eval_seed as check_seed
+from pg_policy.target_loop.loop_types import PolicyObservation
 from pg_policy.target_loop.records import TrialRecord, plain
-from pg_policy.target_loop.target_loop import PolicyObservation
 from pg_sim.scenes.scene import find_scene, list_scenes, load_scene
 from pg_sim.world.recolour import UNIQUE, check_mode
 from pg_sim.world.scene_families import GENERATED

@@ -17,9 +17,9 @@ from typing import Any
 
 from pg_conversions.heightmap_msg import heightmap_from_msg
 from pg_policy.ros.convert import primitive_name
+from pg_policy.target_loop.loop_types import PolicyObservation
 from pg_policy.target_loop.metrics import Stat, scene_metrics
 from pg_policy.target_loop.records import TrialRecord
-from pg_policy.target_loop.target_loop import PolicyObservation
 
 DECISIONS = "/pg/decisions"
 HEIGHTMAP = "/pg/heightmap"

@@ -1,7 +1,7 @@
 """Conversions between pg_policy's decisions and ROS messages (no rospy: message classes only); heightmap messages
 are pg_conversions.heightmap_msg's.
 
-- pg_policy.target_loop.target_loop.ActionRecord -> pg_msgs/Decision.
+- pg_policy.target_loop.loop_types.ActionRecord -> pg_msgs/Decision.
 - Q map / decision overlay image (rgb8, one pixel per heightmap cell, row 0 = y_min) for /pg/q_map.
 - visualization_msgs/MarkerArray of the chosen action and the target outline in `world`.
 """
@@ -22,7 +22,7 @@ WORLD = "world"
 
 # -- decisions ----------------------------------------------------------------------------------------------------
 def decision_msg(rec: Any, stamp: Any) -> Any:
-    """pg_policy.target_loop.target_loop.ActionRecord -> pg_msgs/Decision stamped `stamp` (rospy.Time)."""
+    """pg_policy.target_loop.loop_types.ActionRecord -> pg_msgs/Decision stamped `stamp` (rospy.Time)."""
     import rospy
     from geometry_msgs.msg import Point
 

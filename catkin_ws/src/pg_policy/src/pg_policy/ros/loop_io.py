@@ -16,7 +16,7 @@ from pg_msgs.srv import ExecutePrimitive, ExecutePrimitiveRequest
 
 from pg_conversions.heightmap_msg import heightmap_from_msg
 from pg_policy.ros import convert
-from pg_policy.target_loop.target_loop import Execution, LoopError, NoHeightmap, StampedHeightmap
+from pg_policy.target_loop.loop_types import Execution, LoopError, NoHeightmap, StampedHeightmap
 
 
 class TopicHeightmapSource:

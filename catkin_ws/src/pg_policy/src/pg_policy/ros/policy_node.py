@@ -57,16 +57,16 @@ from pg_policy.ros.target_io import TargetRequests
 from pg_policy.ros.target_request import first_view_field, refusal
 from pg_policy.target_loop.episode import CANCELLED, DEFAULT_MAX_ACTIONS, DEFAULT_MAX_FAILED_GRASPS
 from pg_policy.target_loop.loop_limits import DEFAULT_TIMEOUT_S, LoopLimits, request_limits
-from pg_policy.target_loop.target_loop import (
+from pg_policy.target_loop.loop_types import (
     LoopError,
     NoHeightmap,
     StampedHeightmap,
-    TargetLoop,
     TargetRefused,
     as_spec,
     mask_of,
     target_label,
 )
+from pg_policy.target_loop.target_loop import TargetLoop
 
 BUSY = "busy: another grasp_target call is running"
 
