@@ -3,7 +3,7 @@ with evaluation seeds >= 1000000), recording every call's outcome and wall time 
 
 Invariants: every call answers within its timeout; no node dies; after the warm-up no node's RSS grows by more than
 --rss-slope-max MB per 100 calls (least-squares slope; judged with at least --slope-min-calls calls after the
-warm-up)."""
+warm-up); no "target lost" answer while the simulator has the target inside the workspace."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from collections import Counter
 from tqdm import tqdm
 
 from . import procs
-from .client import Services
+from .client import Services, fresh_scene_state
 from .report import ProbeResult
 from .runner import Context
 
@@ -64,6 +64,7 @@ def run(ctx: Context, res: ProbeResult) -> None:
     samples: dict[str, list[tuple[int, float]]] = {name: [] for name in pids0}
     warm_rss: dict[str, float | None] = {}
     outcomes: Counter[str] = Counter()
+    lost_truth: Counter[str] = Counter()  # "target lost" answers by where the simulator has the target
     calls = successes = late = resets_failed = resets_unsettled = 0
     crashed: list[str] = []
     durations: list[float] = []
@@ -85,6 +86,12 @@ def run(ctx: Context, res: ProbeResult) -> None:
         successes += out.success
         late += not out.answered
         outcomes[message_kind(out.message)] += 1
+        if out.message.startswith("target lost:"):  # the simulator's ground truth on the policy's verdict
+            state = fresh_scene_state(opts.answer_wait)
+            truth = "unknown" if state is None else "inside" if state.target_in_workspace else "outside"
+            lost_truth[truth] += 1
+            res.notes.append(f"call {i} ({scene} {num} {seed}): {out.message[:160]}; the simulator has the target "
+                             f"{truth} the workspace")
         durations.append(out.seconds)
         name = reset.get("scene_name") or f"{scene} (reset failed)"
         if i <= 40:
@@ -129,6 +136,9 @@ def run(ctx: Context, res: ProbeResult) -> None:
     by_msg.rows += [[k, v] for k, v in outcomes.most_common()]
     res.figures.update({"calls": calls, "successes": successes, "success rate": round(successes / calls, 3)
                         if calls else None, "crashes": len(crashed), "calls unanswered within the timeout": late,
+                        "target lost answers with the target outside / inside the workspace (simulator)":
+                            f"{lost_truth['outside']} / {lost_truth['inside']}"
+                            + (f" ({lost_truth['unknown']} unknown)" if lost_truth["unknown"] else ""),
                         "resets refused or failed": resets_failed,
                         "resets refused: a scene that does not come to rest": resets_unsettled,
                         "median call wall time (s)": round(sorted(durations)[len(durations) // 2], 1)
@@ -137,6 +147,8 @@ def run(ctx: Context, res: ProbeResult) -> None:
     res.check("calls were made", calls > 0, f"{calls} of {n}")
     res.check("no node died", not crashed, f"died: {crashed}" if crashed else f"{len(pids0)} nodes alive")
     res.check("every call answered within its timeout", late == 0, f"{late} unanswered")
+    res.check('no "target lost" answer with the target inside the workspace (simulator)', not lost_truth["inside"],
+              f"{lost_truth['inside']} of {sum(lost_truth.values())}")
     first_reset = next((n for n in res.notes if n.startswith("reset ")), "")
     res.check("every reset of a valid scene succeeded (or was refused as not coming to rest, scene unchanged)",
               resets_failed == 0,
