@@ -311,7 +311,7 @@ def test_pacer_throttles_idle_and_not_busy():
 
 
 def test_objects_outside_the_workspace_or_off_the_table_are_left(fresh):
-    from pg_sim.runtime.sim_runtime import FALLEN_Z
+    from pg_sim.runtime.object_activity import FALLEN_Z
     from pg_sim.scenes.objects import set_object_pose
 
     bodies = list(fresh.world.objects)

@@ -21,7 +21,8 @@ Threading: the ``submit_*`` methods may be called from any thread (ROS callbacks
 
 Objects that fall off the table, or rest outside the workspace after a gripper released them, are left where they
 are (the controller drops grasped objects at the home pose, outside the workspace). An object that has fallen below
-the table (z < FALLEN_Z) is frozen there (made static) so it does not fall forever and keep the sim busy.
+the table (pg_sim.runtime.object_activity.FALLEN_Z) is frozen there (made static) so it does not fall forever and
+keep the sim busy.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from pg_core.geometry import Geometry
 from pg_core.heap_trim import release_free_memory
 from pg_sim.robot.trajectory import JointTrajectory, TrajectoryError
 from pg_sim.runtime.arm_channel import ArmChannel
+from pg_sim.runtime.object_activity import freeze_fallen, objects_moving
 from pg_sim.runtime.reset_request import resolve_reset
 from pg_sim.runtime.runtime_types import (
     CameraCapture,
@@ -58,13 +60,10 @@ from pg_sim.world.pacer import Pacer, Periodic
 from pg_sim.world.sensor_data import CloudBuilder, MarkerPart, ObjectMarker, depth_with_nan, marker_parts, pose_parts
 from pg_sim.world.world import World
 
-FALLEN_Z = -0.5          # m: objects below this have left the table for good and are frozen
 ARM_SETTLE_TOL = 2e-3    # rad: after a trajectory the arm counts as moving until within this of its reference
 ARM_SETTLE_MAX = 1.0     # s: ... or for at most this long (an arm pressing on an object may never get there)
 GRIPPER_MIN_BUSY = 0.05  # s after a gripper command during which it counts as moving (fingers still accelerating)
 GRIPPER_MAX_BUSY = 2.0   # s: a gripper stops counting as moving after this long, stalled or not
-OBJECT_LIN_TOL = 0.01    # m/s: an object moving faster than this keeps the sim busy
-OBJECT_ANG_TOL = 0.1     # rad/s
 MAX_START_DELAY = 10.0   # s: a trajectory stamped further in the future is refused (a wall-clock stamp, surely)
 CAMERA_REUSE_MAX = 5.0   # s: an unchanged scene re-uses its last render for at most this long
 MAX_MESSAGE = 600        # characters: longest reset answer (longer ones are cut)
@@ -212,7 +211,7 @@ class SimRuntime:
         if self.camera_.due(t):
             out.camera = self.capture()
         if self.step_count % 60 == 0:
-            self._freeze_fallen()
+            freeze_fallen(self.world, self.frozen_)
         if self.scene_state_.due(t):
             out.scene_state = self.scene_state()
             out.markers = self.markers()
@@ -395,26 +394,5 @@ class SimRuntime:
                     else:
                         a.gripper_time = -np.inf  # stopped (reached or stalled)
         if self.step_count % 4 == 0:  # objects every 4th step (1/60 s); the result holds in between
-            self.objects_moving_ = self._objects_moving()
+            self.objects_moving_ = objects_moving(self.world, self.frozen_)
         return busy or self.objects_moving_
-
-    def _objects_moving(self) -> bool:
-        c = self.world.client
-        for body in self.world.objects:
-            if body in self.frozen_:
-                continue
-            lin, ang = p.getBaseVelocity(body, physicsClientId=c)
-            if np.dot(lin, lin) > OBJECT_LIN_TOL ** 2 or np.dot(ang, ang) > OBJECT_ANG_TOL ** 2:
-                return True
-        return False
-
-    def _freeze_fallen(self) -> None:
-        c = self.world.client
-        for body in self.world.objects:
-            if body in self.frozen_:
-                continue
-            pos, _ = p.getBasePositionAndOrientation(body, physicsClientId=c)
-            if pos[2] < FALLEN_Z:
-                p.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=c)
-                p.changeDynamics(body, -1, mass=0.0, physicsClientId=c)  # static from now on
-                self.frozen_.add(body)
