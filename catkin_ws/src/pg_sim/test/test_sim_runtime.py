@@ -18,6 +18,7 @@ from pg_sim.world.pacer import Pacer
 from pg_sim.world.sensor_data import CLOUD_DTYPE
 
 FAST = dict(real_time_factor=0.0, idle_real_time_factor=0.0)
+ESCAPE = "../" * 16 + "etc/passwd"  # a scene path that climbs out of any working directory
 
 
 @pytest.fixture(scope="module")
@@ -136,8 +137,8 @@ def test_scene_state_ground_truth(fresh):
         (ResetRequest("packed/case01", 0, -5), "seed", "must be a non-negative integer, got -5"),
         (ResetRequest("random", -3, 1), "num_objects", "must be a non-negative integer, got -3"),
         (ResetRequest("random", 500, 1), "num_objects", "a random scene needs num_objects in [1, 40], got 500"),
-        (ResetRequest("../../../../etc/passwd"), "scene",
-         "'../../../../etc/passwd' (resolved: '/etc/passwd') is outside the allowed scene folders"),
+        (ResetRequest(ESCAPE), "scene",  # relative to the working directory, whichever it is
+         f"'{ESCAPE}' (resolved: '/etc/passwd') is outside the allowed scene folders"),
         (ResetRequest("/etc/passwd"), "scene", "'/etc/passwd' is outside the allowed scene folders"),
         (ResetRequest("x" * 100000), "scene", "100000 characters, at most 1024"),
         (ResetRequest("x" * 1000), "scene", "'xxxx"),
