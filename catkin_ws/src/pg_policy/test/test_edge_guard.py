@@ -47,7 +47,7 @@ def test_a_push_towards_the_edge_gives_way_to_the_best_push_that_keeps_the_targe
 
 
 def test_pushes_in_the_middle_or_along_the_edge_or_missing_the_target_are_kept():
-    guard = EdgeGuard(GEO)
+    guard = EdgeGuard.from_arg(GEO, "0")  # along the edge too: no inward distance asked
     for (x, y), favourite in (((0.0, 0.0), (MINUS_Y, *_cell(0.0, 0.03))),  # middle: ends at y -0.1, inside
                               ((0.0, -0.2), (PLUS_X, *_cell(-0.03, -0.2))),  # along the edge: no farther out
                               ((0.0, -0.15), (MINUS_Y, *_cell(0.06, -0.12)))):  # misses the target
@@ -56,6 +56,25 @@ def test_pushes_in_the_middle_or_along_the_edge_or_missing_the_target_are_kept()
         out, res = apply_rule(guard, q, hm, target, np.ones((H, W), bool))
         np.testing.assert_array_equal(out, q)
         assert res.rejected["push"] == 0
+
+
+def test_with_an_inward_distance_a_target_beyond_the_margin_must_be_carried_back_inwards():
+    # the target at y -0.2 lies 6 mm beyond the shrunk workspace: a push along the edge that meets it no longer
+    # passes; a push carrying it 1 cm or more back in does, and so does a push that misses it
+    guard = EdgeGuard(GEO)  # INWARD_M = 0.01
+    assert guard.spec() == "edge_guard" and EdgeGuard.from_arg(GEO, "0.01").spec() == "edge_guard"
+    assert EdgeGuard.from_arg(GEO, "0").spec() == "edge_guard:0"
+    hm, target = _target_at(0.0, -0.2)
+    along = (PLUS_X, *_cell(-0.03, -0.2))
+    out, res = apply_rule(guard, _q(along, (PLUS_Y, *_cell(0.0, -0.22))), hm, target, np.ones((H, W), bool))
+    assert out[along] == -np.inf and res.rejected["push"] >= 1
+    for kept in ((PLUS_Y, *_cell(0.0, -0.22)), (MINUS_Y, *_cell(0.06, -0.12))):  # inwards; missing the target
+        q = _q(kept, (PLUS_X, 0, 0))
+        np.testing.assert_array_equal(apply_rule(guard, q, hm, target, np.ones((H, W), bool))[0], q)
+    with pytest.raises(ValueError, match="inward distance"):
+        EdgeGuard.from_arg(GEO, "far")
+    with pytest.raises(ValueError, match="edge guard"):
+        EdgeGuard.from_arg(GEO, "-0.01")
 
 
 def _with_block(hm: Heightmap, x0: float, x1: float, y0: float, y1: float) -> Heightmap:

@@ -15,7 +15,7 @@ META = {"thresholds": {"grasp_q": 0.7, "push_budget": 3}, "rules": ["grasp_filte
 
 def test_the_model_gives_the_values_the_options_leave_unset():
     c = LearnedConfig.from_model(META, {})
-    assert c == LearnedConfig(0.7, 3, ("grasp_filter:min3", "edge_guard"), True, True, MIN_VISIBLE_CELLS,
+    assert c == LearnedConfig(0.7, 3, ("grasp_filter:min3", "edge_guard"), True, True, True, MIN_VISIBLE_CELLS,
                               HIDDEN_PUSHES)
     assert LearnedConfig.from_model({"thresholds": {"grasp_q": 0.5}}, {}).push_budget == 0  # no budget stored
     with pytest.raises(ValueError, match="grasp-threshold"):  # neither the model nor the options have one
@@ -25,9 +25,9 @@ def test_the_model_gives_the_values_the_options_leave_unset():
 def test_options_override_the_model_and_are_parsed_by_their_declaration():
     c = LearnedConfig.from_model(META, {"grasp_threshold": "0.5", "push_budget": 0, "rules": "none",
                                         "edge_guard": "on", "q_window": "off", "forced_grasp": False,
-                                        "min_target_cells": "5", "hidden_pushes": 0})
-    assert (c.threshold, c.push_budget, c.rules, c.q_window, c.forced_grasp, c.min_target_cells,
-            c.hidden_pushes) == (0.5, 0, ("edge_guard",), False, False, 5, 0)
+                                        "refused_push": "off", "min_target_cells": "5", "hidden_pushes": 0})
+    assert (c.threshold, c.push_budget, c.rules, c.q_window, c.forced_grasp, c.refused_push, c.min_target_cells,
+            c.hidden_pushes) == (0.5, 0, ("edge_guard",), False, False, False, 5, 0)
     assert LearnedConfig.from_model(META, {"push_budget": None, "q_window": "auto"}).q_window  # unset
     with pytest.raises(AttributeError):
         c.threshold = 1.0  # type: ignore[misc]  # frozen

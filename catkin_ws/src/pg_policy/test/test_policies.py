@@ -263,8 +263,8 @@ def test_grasp_check_comes_from_the_option_else_the_model_metadata(model_dir, tm
 def test_the_shipped_model_brings_its_test_time_rules():
     # docs/RESULTS.md reports `lite` with these; `make train` exports them (scripts/train_recipe.sh)
     lite = make_policy("lite")
-    assert lite.rules.specs() == ["grasp_filter:min3", "failed_grasps:0.01", "grasp_check:jaw-walls", "push_landing",
-                                  "edge_guard"]
+    assert lite.rules.specs() == ["grasp_filter:min3", "failed_grasps:0.01", "low_parts", "grasp_check:jaw-walls",
+                                  "push_landing", "edge_guard"]
     assert lite.threshold == pytest.approx(0.7) and lite.push_budget == 3
     assert "grasp_check" not in make_policy("lite", PolicyOptions(overrides={"grasp_check": "none"})).rules
 
@@ -380,3 +380,22 @@ def test_a_hidden_target_is_pushed_for_until_hidden_pushes_then_grasped(model_di
     assert learned(model_dir, {**eager, "hidden_pushes": 4}).act(visible).primitive == "grasp"
     with pytest.raises(ValueError, match="hidden_pushes"):
         learned(model_dir, {"hidden_pushes": -1})
+
+
+def test_a_push_every_push_rule_refuses_is_never_made_the_policy_grasps_instead(model_dir):
+    # the edge guard made to refuse every push candidate: with option refused_push (on by default) the policy grasps
+    # although Q_g is below the threshold; off, it makes the best refused push as before
+    obs = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (-0.1, 0.1, CUBE, CUBE, "blue")])
+
+    def refuse_all(pol: Policy) -> Policy:
+        pol.rules["edge_guard"].candidate_test = lambda ctx: (lambda r, row, col: False)
+        return pol
+
+    pol = refuse_all(learned(model_dir, {"grasp_threshold": 1e9, "edge_guard": "on"}))
+    d = pol.act(obs)
+    assert d.primitive == "grasp" and pol.last_note.startswith("every push is refused by the push rules")
+    assert pol.pushes_in_row == 0
+    off = refuse_all(learned(model_dir, {"grasp_threshold": 1e9, "edge_guard": "on", "refused_push": "off"}))
+    assert off.act(obs).primitive == "push" and off.last_note == ""
+    allowed = learned(model_dir, {"grasp_threshold": 1e9, "edge_guard": "on"})  # the real guard passes pushes here
+    assert allowed.act(obs).primitive == "push"

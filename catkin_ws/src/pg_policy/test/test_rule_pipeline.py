@@ -81,16 +81,16 @@ def test_filters_shape_the_shown_map_and_memories_only_the_decision():
 
 
 def test_rules_are_found_by_module_and_named_once():
-    assert list(builtin_rule_classes()) == ["grasp_filter", "failed_grasps", "futile_pushes", "grasp_check",
-                                            "push_landing", "edge_guard"]
-    assert list(rule_classes())[:6] == list(builtin_rule_classes())  # installed plug-ins follow
+    assert list(builtin_rule_classes()) == ["grasp_filter", "failed_grasps", "futile_pushes", "low_parts",
+                                            "grasp_check", "push_landing", "edge_guard"]
+    assert list(rule_classes())[:7] == list(builtin_rule_classes())  # installed plug-ins follow
     assert make_pipeline(SHIPPED, GEO).specs() == SHIPPED
     with pytest.raises(ValueError, match="unknown rule 'fancy'"):
         make_pipeline(["fancy"], GEO)
     with pytest.raises(ValueError, match="once"):
         make_pipeline(["push_landing", "push_landing"], GEO)
     with pytest.raises(ValueError, match="takes no argument"):
-        make_pipeline(["edge_guard:3"], GEO)
+        make_pipeline(["push_landing:3"], GEO)
 
 
 class Shift(Rule):
@@ -133,6 +133,7 @@ def test_options_switch_rules_in_place_or_at_their_order():
     assert with_switch(SHIPPED, "grasp_check", "grasp_check:jaw") == [
         "grasp_filter:min3", "failed_grasps:0.01", "grasp_check:jaw", "push_landing", "edge_guard"]
     assert with_switch(SHIPPED, "futile_pushes", "futile_pushes:0.01")[2] == "futile_pushes:0.01"
+    assert with_switch(SHIPPED, "low_parts", "low_parts")[2:4] == ["low_parts", "grasp_check:jaw-walls"]
     assert options.resolved_rules(SHIPPED, {"grasp_check": "none", "edge_guard": "off"}) == [
         "grasp_filter:min3", "failed_grasps:0.01", "push_landing"]
     assert options.resolved_rules(SHIPPED, {"failed_grasp_radius": 0.0}) == [

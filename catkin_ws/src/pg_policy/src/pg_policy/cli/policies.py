@@ -38,7 +38,7 @@ def _run(args: argparse.Namespace) -> int:
             continue
         flag = cls.option.flag if cls.option is not None else "-"
         origin = "" if entry.origin == "built-in" else f" {entry.origin}"
-        rows.append((cls.order, f"  {name:<20} {cls.primitive:<6} {cls.kind:<7} {flag}{origin}".rstrip()))
+        rows.append((cls.order, f"  {name:<20} {cls.primitive:<6} {cls.kind:<10} {flag}{origin}".rstrip()))
     for _, row in sorted(rows, key=lambda r: r[0]):
         print(row)
     return 0

@@ -13,7 +13,9 @@ Per decision (the paper's loop at test time):
    vetoing grasp rule pushes instead within the budget; while the target is hidden it pushes until HIDDEN_PUSHES
    pushes in a row (option hidden_pushes), since every neighbour a grasp lifts counts as a failed grasp. A grasp
    the budget forces while no candidate passes the grasp rules goes to the best cell passing their weaker fallback
-   tests (option forced_grasp, on by default; RulePipeline.forced_grasp), else to Q_g's argmax.
+   tests (option forced_grasp, on by default; RulePipeline.forced_grasp), else to Q_g's argmax. A push that the
+   push rules refuse is never made: when they refuse every push candidate they test (the edge guard: each would
+   carry the target out of the workspace), the policy grasps as a spent budget does (option refused_push, on).
 The threshold and budget come from the grasp model's metadata (thresholds.grasp_q, push_budget), the rule list from
 its `rules` (or the switches of older models); PolicyOptions overrides any of them (pg_policy.policies.options). The
 policy reads them once into a LearnedConfig. What the policy must do whatever Q_g says (a spent push budget, a veto,
@@ -71,7 +73,8 @@ class LearnedConfig:
     max of Q_g exceeds it (option grasp_threshold; metadata thresholds.grasp_q); push_budget: grasp after this many
     pushes in a row, 0: no budget (thresholds.push_budget, default 0); rules: the rule list, "name" or "name:arg"
     entries (the model's `rules` edited by the rule options); q_window: Q only around the regions (default on);
-    forced_grasp: a grasp the budget forces goes to the grasp rules' fallback tests (default on); min_target_cells:
+    forced_grasp: a grasp the budget forces goes to the grasp rules' fallback tests (default on); refused_push: when
+    the push rules refuse every push candidate, grasp as a spent budget does (default on); min_target_cells:
     the target is visible from this many cells (default pg_core.target_mask.MIN_VISIBLE_CELLS); hidden_pushes:
     pushes in a row while the target is hidden before a grasp, 0: off (default HIDDEN_PUSHES). ValueError naming
     the option for a value out of range."""
@@ -81,6 +84,7 @@ class LearnedConfig:
     rules: tuple[str, ...] = ()
     q_window: bool = True
     forced_grasp: bool = True
+    refused_push: bool = True
     min_target_cells: int = MIN_VISIBLE_CELLS
     hidden_pushes: int = HIDDEN_PUSHES
 
@@ -100,7 +104,8 @@ class LearnedConfig:
         by option name; None or absent: unset). ValueError naming the option for a bad value, an undeclared option,
         or a model without a threshold when none is given."""
         value = {name: option(name).parse(overrides.get(name)) for name in (
-            "grasp_threshold", "push_budget", "q_window", "forced_grasp", "min_target_cells", "hidden_pushes")}
+            "grasp_threshold", "push_budget", "q_window", "forced_grasp", "refused_push", "min_target_cells",
+            "hidden_pushes")}
         threshold = value["grasp_threshold"]
         budget = value["push_budget"]
         if budget is None:
@@ -116,6 +121,7 @@ class LearnedConfig:
             rules=tuple(resolved_rules(model_rules(metadata), overrides)),
             q_window=value["q_window"] is not False,  # unset: on
             forced_grasp=value["forced_grasp"] is not False,  # unset: on
+            refused_push=value["refused_push"] is not False,  # unset: on
             min_target_cells=MIN_VISIBLE_CELLS if value["min_target_cells"] is None else value["min_target_cells"],
             hidden_pushes=HIDDEN_PUSHES if value["hidden_pushes"] is None else value["hidden_pushes"],
         )
@@ -196,16 +202,20 @@ class LearnedPolicy(PolicyBase):
         t3 = time.perf_counter()
         self._q = outcome.shown
         spent = 0 < self.config.push_budget <= self.pushes_in_row
-        force, self.last_note = (Force.GRASP if spent else Force.NONE), ""
-        if outcome.push_instead and not spent:
+        refused = self.config.refused_push and outcome.vetoed["push"]  # no push passes the push rules
+        force, self.last_note = (Force.GRASP if spent or refused else Force.NONE), ""
+        if refused:
+            self.last_note = "every push is refused by the push rules: grasp"
+        if outcome.push_instead and not (spent or refused):
             force, self.last_note = Force.PUSH, outcome.note
         if not visible and self.pushes_in_row < self.config.hidden_pushes:
             force = Force.PUSH
         q_grasp = outcome.q["grasp"]
-        if spent and self.config.forced_grasp and outcome.vetoed["grasp"]:
+        if (spent or refused) and self.config.forced_grasp and outcome.vetoed["grasp"]:
             q_grasp, level = self.rules.forced_grasp(q_grasp, ctx)
             if level is not None:
-                self.last_note = f"push budget spent: grasp passing fallback test {level + 1} of the grasp rules"
+                why = "every push is refused by the push rules" if refused else "push budget spent"
+                self.last_note = f"{why}: grasp passing fallback test {level + 1} of the grasp rules"
         d = decide(q_grasp, outcome.q["push"], target, hm, self.prims, decision_threshold(force, self.threshold),
                    push_mask=ctx.push_region, grasp_mask=ctx.grasp_region)  # the regions the rules saw
         if not visible:  # e.g. "target hidden: searching where last seen (x, y): push"

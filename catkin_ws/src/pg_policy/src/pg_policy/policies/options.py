@@ -43,6 +43,9 @@ GENERAL = (
     PolicyOption("forced_grasp", "switch", "learned: when the push budget forces a grasp that no candidate passes "
                  "the grasp rules for, grasp the best cell passing their weaker fallback tests; off: Q_g's argmax",
                  default="on"),
+    PolicyOption("refused_push", "switch", "learned: when the push rules refuse every push candidate they test (e.g. "
+                 "each would carry the target out of the workspace), grasp instead, by the grasp rules' fallback tests "
+                 "when none passes them; off: make the best refused push", default="on"),
     PolicyOption("q_window", "switch", "learned: compute Q only around the target's grasp and push regions, exactly "
                  "(lite nets; other cells are -inf, so Q map images show the regions); off: the full maps",
                  default="on"),

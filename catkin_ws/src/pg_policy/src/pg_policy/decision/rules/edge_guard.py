@@ -13,7 +13,10 @@ The cluster's cells inside the finger corridor (|v offset| <= finger width / 2, 
 met at the nearest one, and the cluster, target included, is carried the rest of the way as one rigid body
 (rotation, sliding and the pile breaking up ignored: an over-estimate for pushes into the pile's far side). A push
 is refused when the target's predicted centre ends outside the workspace shrunk by `margin_m` and farther outside
-it than now, so pushes back inwards, along the edge and pushes that miss the cluster stay allowed. As the test-time
+it than now; and, when the target already lies beyond the margin and the push meets it, unless the push brings it
+back by at least `inward_m` (along the edge, a pushed target turns and rolls and leaves: the rule's argument, in
+metres, default INWARD_M; "edge_guard:0" allows such pushes). Pushes back inwards and pushes that miss the cluster
+stay allowed. As the test-time
 rule "edge_guard" (pg_policy.decision.rules.rule) it is a candidate test on Q_p while the target is visible: the
 pipeline re-ranks Q_p's best cells of the push region by it and every other push rule together. A test-time
 deviation from the paper (docs/ARCHITECTURE.md).
@@ -33,6 +36,7 @@ from pg_policy.decision.rules.rule import CandidateTest, Rule, RuleContext
 MARGIN_M = 0.03  # the predicted target centre should stay this far inside the workspace (the heuristic's edge_margin)
 OCCUPIED_M = OBJECT_HEIGHT_M  # cells higher than this hold an object (pg_core.heightmap; the heuristic's `occupied`)
 GAP_CELLS = 4  # objects this many cells (8 mm) apart or closer count as touching: the pusher closes such gaps
+INWARD_M = 0.01  # a push that meets a target already beyond the margin must carry it back in by this much (m)
 
 
 class EdgeGuard(Rule):
@@ -45,10 +49,10 @@ class EdgeGuard(Rule):
     primitive = "push"
 
     def __init__(self, geometry: Geometry, margin_m: float = MARGIN_M, top_k: int = TOP_K,
-                 occupied_m: float = OCCUPIED_M, gap_cells: int = GAP_CELLS) -> None:
-        if margin_m < 0 or top_k < 1 or gap_cells < 0:
-            raise ValueError(f"edge guard needs margin_m >= 0, top_k >= 1 and gap_cells >= 0, got {margin_m}, "
-                             f"{top_k}, {gap_cells}")
+                 occupied_m: float = OCCUPIED_M, gap_cells: int = GAP_CELLS, inward_m: float = INWARD_M) -> None:
+        if margin_m < 0 or top_k < 1 or gap_cells < 0 or inward_m < 0:
+            raise ValueError(f"edge guard needs margin_m, inward_m >= 0, top_k >= 1 and gap_cells >= 0, got "
+                             f"{margin_m}, {inward_m}, {top_k}, {gap_cells}")
         ws = geometry.workspace
         self.lo = np.array([ws.x[0], ws.y[0]]) + margin_m
         self.hi = np.array([ws.x[1], ws.y[1]]) - margin_m
@@ -56,6 +60,20 @@ class EdgeGuard(Rule):
         self.half_width = geometry.gripper.finger_size[1] / 2
         self.rotations = geometry.heightmap.rotations
         self.top_k, self.occupied, self.gap = top_k, occupied_m, gap_cells
+        self.inward = inward_m
+
+    @classmethod
+    def from_arg(cls, geometry: Geometry, arg: str | None) -> Rule:
+        if arg is None:
+            return cls(geometry)
+        try:
+            inward = float(arg)
+        except ValueError:
+            raise ValueError(f"rule 'edge_guard' takes the inward distance in metres, got {arg!r}") from None
+        return cls(geometry, inward_m=inward)
+
+    def arg(self) -> str | None:
+        return None if self.inward == INWARD_M else f"{self.inward:g}"
 
     def outside(self, xy: np.ndarray) -> float:
         """How far (m) the point `xy` lies outside the shrunk workspace (0 inside)."""
@@ -87,8 +105,12 @@ class EdgeGuard(Rule):
         centre = t_xy.mean(axis=0)
         carry = self.carried(t_xy if c_xy is None else c_xy, start, yaw)
         after = centre + carry * np.array([math.cos(yaw), math.sin(yaw)])
-        out = self.outside(after)
-        return out <= 0.0 or out <= self.outside(centre) + 1e-9
+        out, now = self.outside(after), self.outside(centre)
+        if out <= 0.0:
+            return True
+        if carry > 0.0 and now > 0.0 and self.inward > 0.0:
+            return out <= now - self.inward
+        return out <= now + 1e-9
 
     def candidate_test(self, ctx: RuleContext) -> CandidateTest | None:
         if not ctx.visible or not ctx.target.any():

@@ -2,7 +2,8 @@
 
 For each Q map (grasp, then push) the pipeline applies, in the configured order, the `adjust` of every rule on that
 map whose kind shapes the map users see (filters), then the others' (pg_policy.decision.rules.rule.RULE_KINDS), then
-re-ranks the map once by the conjunction of the rules' candidate tests (pg_policy.decision.rerank): the
+re-ranks the map once by the conjunction of the rules' candidate tests (pg_policy.decision.rerank; when no
+candidate passes the tests of the "preference" rules with the others, by the others' alone): the
 best-valued candidate inside the primitive's region that passes every test takes the map's best value, so the
 grasp-or-push decision (masked max vs the threshold) is unchanged by the tests; when none of the best `top_k`
 passes, the map is left as it was and a vetoing grasp rule asks the policy to push instead. When the policy must
@@ -51,6 +52,11 @@ class MapOutcome:
     rejected: int
     vetoed: bool
     vetoers: list[Rule]
+
+
+def _any(rotation: int, row: int, col: int) -> bool:
+    """The candidate test every candidate passes."""
+    return True
 
 
 def conjunction(tests: Sequence[CandidateTest]) -> CandidateTest:
@@ -138,26 +144,34 @@ class RulePipeline:
         if not tested:
             return MapOutcome(q, shown, 0, False, [])
         region = ctx.region(primitive)
+        top_k = max(r.top_k for r, _ in tested)
+        hard = [(r, t) for r, t in tested if not r.rule_kind().soft]
         with timer.charge("rerank", exclusive=True):
-            q, rank = rerank(q, region, conjunction([t for _, t in tested]), max(r.top_k for r, _ in tested))
-        vetoed = rank is None and bool((region[None] & np.isfinite(q)).any())
-        return MapOutcome(q, shown, rank or 0, vetoed, [r for r, _ in tested if r.vetoes_grasp])
+            ranked, rank = rerank(q, region, conjunction([t for _, t in tested]), top_k)
+            if rank is None and len(hard) < len(tested):  # no candidate passes the preferences: the checks alone
+                ranked, rank = rerank(q, region, conjunction([t for _, t in hard]) if hard else _any, top_k)
+        vetoed = rank is None and bool((region[None] & np.isfinite(ranked)).any())
+        return MapOutcome(ranked, shown, rank or 0, vetoed, [r for r, _ in hard if r.vetoes_grasp])
 
     def forced_grasp(self, q: np.ndarray, ctx: RuleContext) -> tuple[np.ndarray, int | None]:
         """(Q_g re-ranked, the fallback level that passed) for a grasp the push budget forces while no candidate of
         the (R, H, W) map `q` (as `apply` left it) passes the grasp rules' tests: level i asks every grasp rule's
         i-th fallback test (pg_policy.decision.rules.rule.Rule.fallback_tests; its last one past its end, its
-        candidate_test when it has none) of the best FORCED_TOP_K candidates of the grasp region, and the first
+        candidate_test when it has none; a preference rule's candidate_test while a candidate passes it with the
+        others) of the best FORCED_TOP_K candidates of the grasp region, and the first
         level with a passing candidate re-ranks the map as `apply` does. (q unchanged, None) when no level passes
         or no rule has a fallback."""
+        grasp_rules = [r for r in self.rules if r.primitive == "grasp"]
         per_rule = [(fb, None if fb else r.candidate_test(ctx))  # a rule's own test only where it has no fallback
-                    for r in self.rules if r.primitive == "grasp" for fb in [r.fallback_tests(ctx)]]
+                    for r in grasp_rules if not r.rule_kind().soft for fb in [r.fallback_tests(ctx)]]
+        soft = [t for r in grasp_rules if r.rule_kind().soft and (t := r.candidate_test(ctx)) is not None]
         for level in range(max((len(fb) for fb, _ in per_rule), default=0)):
             tests = [fb[min(level, len(fb) - 1)] if fb else ct for fb, ct in per_rule]
             tests = [t for t in tests if t is not None]
-            m, rank = rerank(q, ctx.grasp_region, conjunction(tests), FORCED_TOP_K)
-            if rank is not None:
-                return m, level
+            for with_soft in ([tests + soft, tests] if soft else [tests]):  # the preferences while one passes
+                m, rank = rerank(q, ctx.grasp_region, conjunction(with_soft), FORCED_TOP_K)
+                if rank is not None:
+                    return m, level
         return q, None
 
 

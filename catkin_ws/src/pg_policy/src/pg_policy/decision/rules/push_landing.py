@@ -9,8 +9,10 @@ control, and the simulator's contact solver throws it (most of the packed failur
 launched 0.3 m up, an upright cylinder tipped over). A push is refused when more than `max_cover` of its footprint
 cells stand higher than the fingertips (push z + `tol_m`). As the test-time rule "push_landing"
 (pg_policy.decision.rules.rule) it is a candidate test on Q_p while the target is visible: the pipeline re-ranks Q_p's
-best cells of the push region by it and every other push rule together. A test-time deviation from the paper
-(docs/ARCHITECTURE.md).
+best cells of the push region by it and every other push rule together. It is a preference (kind "preference"):
+in a packed pile every one of the best pushes may start over an object, and then the other push rules decide alone
+(the push net's best push that the edge guard passes), as the packed scenes need pushes into the pile. A test-time
+deviation from the paper (docs/ARCHITECTURE.md).
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ class LandingGuard(Rule):
 
     name = "push_landing"
     order = 50
+    kind = "preference"  # in a dense pile every push starts over an object: then the push guards' other tests decide
     option = PolicyOption("push_landing", "switch", "refuse pushes whose closed fingers would come down on top of an "
                           "object: on or off", rule="push_landing")
     primitive = "push"

@@ -11,8 +11,9 @@ Within a trial, `observe(last, before, after)` tells a rule what the previous ac
 contexts before and after it); `reset()` starts a new trial. A grasp rule with `vetoes_grasp` asks the policy to push
 instead when no grasp candidate passes (within the push budget).
 
-A rule's `kind` ("filter", "memory", "check": RULE_KINDS) says how the pipeline treats it: a filter's map is the one
-users see (it runs first on its map), the others shape only the map the decision reads.
+A rule's `kind` ("filter", "memory", "check", "preference": RULE_KINDS) says how the pipeline treats it: a filter's
+map is the one users see (it runs first on its map), the others shape only the map the decision reads; a
+preference's test counts only while some candidate passes it with the checks.
 
 Rules are created by name from a model's metadata or the policy options (pg_policy.decision.rules.registry): each
 module of this package that defines a Rule subclass with a `name` is one rule, and so is each entry point of the group
@@ -69,18 +70,22 @@ class RuleContext:
 class RuleKind:
     """How the pipeline treats the rules of one kind. shown: the rule's `adjust` shapes the map users see (the
     policy's q_maps), so it runs on its map before the rules that shape only the decision's map; reach: the default
-    of Rule.reach (0: `adjust` reads no other cell than the one it writes; None: unknown)."""
+    of Rule.reach (0: `adjust` reads no other cell than the one it writes; None: unknown); soft: the rule's
+    candidate test is dropped when no candidate passes it together with the other rules' (a preference, never a
+    veto)."""
 
     name: str
     shown: bool
     reach: int | None
     help: str
+    soft: bool = False
 
 
 RULE_KINDS: dict[str, RuleKind] = {k.name: k for k in (
     RuleKind("filter", True, None, "reshapes the map, and the map users see"),
     RuleKind("memory", False, 0, "suppresses cells within a trial"),
     RuleKind("check", False, 0, "a yes/no test of candidates"),
+    RuleKind("preference", False, 0, "a yes/no test of candidates, dropped when no candidate passes it", soft=True),
 )}
 
 
