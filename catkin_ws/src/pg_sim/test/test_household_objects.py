@@ -23,7 +23,8 @@ from pg_sim.objects.catalog import (
     split_of,
 )
 from pg_sim.scenes.meshes import collision_file, load_obj
-from pg_sim.scenes.scene import ObjectSpec, SceneError, load_scene, parse_scene, save_scene
+from pg_sim.scenes.scene import ObjectSpec, SceneError, load_scene, parse_scene
+from pg_sim.scenes.scene_writer import save_scene
 from pg_sim.world.world import World
 
 JAW_OPENING = 0.085  # m, pg_description workspace.yaml gripper max opening

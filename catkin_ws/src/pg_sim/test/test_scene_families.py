@@ -6,7 +6,8 @@ import pytest
 
 from pg_sim.objects.catalog import split_of
 from pg_sim.scenes.colors import PALETTE
-from pg_sim.scenes.scene import SceneError, parse_scene, scene_to_dict
+from pg_sim.scenes.scene import SceneError, parse_scene
+from pg_sim.scenes.scene_writer import scene_to_dict
 from pg_sim.world.scene_families import FAMILIES, check_generated, parse_generated, sample_family, target_kind
 
 
@@ -66,7 +67,8 @@ def test_every_kind_is_a_target_in_the_protocol_seeds():
 
 
 def test_generated_scene_round_trips_through_yaml(tmp_path):
-    from pg_sim.scenes.scene import load_scene, save_scene
+    from pg_sim.scenes.scene import load_scene
+    from pg_sim.scenes.scene_writer import save_scene
 
     scene = sample_family("mixed-6", 1_000_010)
     back = load_scene(save_scene(scene, tmp_path / "s.yaml"))

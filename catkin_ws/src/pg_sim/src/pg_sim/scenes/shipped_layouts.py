@@ -13,7 +13,8 @@ from dataclasses import replace
 
 from pg_core.resources import scene_folder
 from pg_sim.scenes.colors import resolve_color
-from pg_sim.scenes.scene import ObjectSpec, SceneSpec, save_scene
+from pg_sim.scenes.scene import ObjectSpec, SceneSpec
+from pg_sim.scenes.scene_writer import save_scene
 
 HEIGHT = {"cube": 0.045, "rect": 0.045, "triangle": 0.045, "arch": 0.045, "cylinder": 0.045, "half_cube": 0.045,
           "half_cylinder": 0.045}

@@ -45,7 +45,8 @@ import numpy as np
 
 from pg_sim.scenes.colors import PALETTE, color_name, nearest_color_name, resolve_color
 from pg_sim.scenes.meshes import mesh_extents
-from pg_sim.scenes.scene import ObjectSpec, SceneError, SceneSpec, save_scene
+from pg_sim.scenes.scene import ObjectSpec, SceneError, SceneSpec
+from pg_sim.scenes.scene_writer import save_scene
 from pg_sim.scenes.shapes import REGISTRY
 from pg_sim.scenes.vpg_frames import (
     DEFAULT_MARGIN,
