@@ -16,8 +16,8 @@ from pg_sim.scenes.scene import (
     list_scenes,
     load_scene,
     parse_scene,
-    save_scene,
 )
+from pg_sim.scenes.scene_writer import save_scene
 
 GOOD = """\
 name: demo
