@@ -73,7 +73,7 @@ def test_with_an_inward_distance_a_target_beyond_the_margin_must_be_carried_back
         np.testing.assert_array_equal(apply_rule(guard, q, hm, target, np.ones((H, W), bool))[0], q)
     with pytest.raises(ValueError, match="inward distance"):
         EdgeGuard.from_arg(GEO, "far")
-    with pytest.raises(ValueError, match="edge guard"):
+    with pytest.raises(ValueError, match="inward distance must be >= 0"):
         EdgeGuard.from_arg(GEO, "-0.01")
 
 

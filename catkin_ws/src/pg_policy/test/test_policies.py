@@ -382,20 +382,19 @@ def test_a_hidden_target_is_pushed_for_until_hidden_pushes_then_grasped(model_di
         learned(model_dir, {"hidden_pushes": -1})
 
 
-def test_a_push_every_push_rule_refuses_is_never_made_the_policy_grasps_instead(model_dir):
-    # the edge guard made to refuse every push candidate: with option refused_push (on by default) the policy grasps
-    # although Q_g is below the threshold; off, it makes the best refused push as before
+def test_a_push_the_edge_guard_refuses_is_never_made_the_policy_grasps_instead(model_dir):
+    # every push candidate refused by the edge guard: with option refused_push (on by default) the policy grasps
+    # although Q_g is below the threshold, off it makes the best refused push; refused by the landing guard alone (a
+    # preference: a packed pile) it still pushes
     obs = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (-0.1, 0.1, CUBE, CUBE, "blue")])
 
-    def refuse_all(pol: Policy) -> Policy:
-        pol.rules["edge_guard"].candidate_test = lambda ctx: (lambda r, row, col: False)
+    def policy(refusing: str, **options: str) -> Policy:
+        pol = learned(model_dir, {"grasp_threshold": 1e9, "edge_guard": "on", "push_landing": "on", **options})
+        pol.rules[refusing].candidate_test = lambda ctx: (lambda r, row, col: False)
         return pol
 
-    pol = refuse_all(learned(model_dir, {"grasp_threshold": 1e9, "edge_guard": "on"}))
-    d = pol.act(obs)
-    assert d.primitive == "grasp" and pol.last_note.startswith("every push is refused by the push rules")
+    pol = policy("edge_guard")
+    assert pol.act(obs).primitive == "grasp" and pol.last_note.startswith("every push is refused by the push rules")
     assert pol.pushes_in_row == 0
-    off = refuse_all(learned(model_dir, {"grasp_threshold": 1e9, "edge_guard": "on", "refused_push": "off"}))
-    assert off.act(obs).primitive == "push" and off.last_note == ""
-    allowed = learned(model_dir, {"grasp_threshold": 1e9, "edge_guard": "on"})  # the real guard passes pushes here
-    assert allowed.act(obs).primitive == "push"
+    assert policy("edge_guard", refused_push="off").act(obs).primitive == "push"
+    assert policy("push_landing").act(obs).primitive == "push"

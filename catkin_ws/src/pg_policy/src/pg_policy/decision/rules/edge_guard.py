@@ -31,7 +31,7 @@ import numpy as np
 from pg_core.geometry import Geometry
 from pg_core.heightmap import OBJECT_HEIGHT_M, TOP_K, Heightmap, cell_centres, pixel_to_world, rotation_yaw
 from pg_policy.decision.option import PolicyOption
-from pg_policy.decision.rules.rule import CandidateTest, Rule, RuleContext
+from pg_policy.decision.rules.rule import CandidateTest, Rule, RuleContext, parse_metres
 
 MARGIN_M = 0.03  # the predicted target centre should stay this far inside the workspace (the heuristic's edge_margin)
 OCCUPIED_M = OBJECT_HEIGHT_M  # cells higher than this hold an object (pg_core.heightmap; the heuristic's `occupied`)
@@ -64,13 +64,7 @@ class EdgeGuard(Rule):
 
     @classmethod
     def from_arg(cls, geometry: Geometry, arg: str | None) -> Rule:
-        if arg is None:
-            return cls(geometry)
-        try:
-            inward = float(arg)
-        except ValueError:
-            raise ValueError(f"rule 'edge_guard' takes the inward distance in metres, got {arg!r}") from None
-        return cls(geometry, inward_m=inward)
+        return cls(geometry, inward_m=INWARD_M if arg is None else parse_metres(cls.name, arg, "inward distance"))
 
     def arg(self) -> str | None:
         return None if self.inward == INWARD_M else f"{self.inward:g}"

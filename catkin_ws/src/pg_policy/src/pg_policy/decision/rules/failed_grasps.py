@@ -19,7 +19,7 @@ import numpy as np
 from pg_core.geometry import Geometry
 from pg_core.heightmap import Heightmap, cell_centre_axes
 from pg_policy.decision.option import PolicyOption
-from pg_policy.decision.rules.rule import Rule, RuleContext
+from pg_policy.decision.rules.rule import Rule, RuleContext, parse_metres
 
 DEFAULT_RADIUS_M = 0.01  # a failed grasp's closing axis is not retried within 1 cm (5 cells at 0.002 m)
 
@@ -77,13 +77,7 @@ class FailedGrasps(Rule):
 
 def parse_radius(rule: str, arg: str) -> float:
     """A radius in metres from a rule's argument; ValueError naming the rule for a non-number or a negative one."""
-    try:
-        radius = float(arg)
-    except ValueError:
-        raise ValueError(f"rule {rule!r}: the argument is a radius in metres, got {arg!r}") from None
-    if not radius >= 0:
-        raise ValueError(f"rule {rule!r}: the radius must be >= 0 m, got {arg!r}")
-    return radius
+    return parse_metres(rule, arg, "radius")
 
 
 def suppress_near(q: np.ndarray, hm: Heightmap, actions: list[tuple[tuple[int, ...], float, float]],

@@ -25,7 +25,7 @@ from pg_core.action_geometry import rim_pit
 from pg_core.geometry import Geometry
 from pg_core.heightmap import TOP_K, rotation_yaw
 from pg_policy.decision.option import PolicyOption
-from pg_policy.decision.rules.rule import BatchTest, CandidateTest, Rule, RuleContext
+from pg_policy.decision.rules.rule import BatchTest, CandidateTest, Rule, RuleContext, parse_metres
 
 MIN_HEIGHT_M = 0.005  # raised parts: cells this far above the table or higher (the grasp probe's high/low split)
 
@@ -49,13 +49,7 @@ class LowParts(Rule):
 
     @classmethod
     def from_arg(cls, geometry: Geometry, arg: str | None) -> Rule:
-        if arg is None:
-            return cls(geometry)
-        try:
-            height = float(arg)
-        except ValueError:
-            raise ValueError(f"rule 'low_parts' takes the least height of a raised part in metres, got {arg!r}") \
-                from None
+        height = MIN_HEIGHT_M if arg is None else parse_metres(cls.name, arg, "least height of a raised part")
         return cls(geometry, min_height_m=height)
 
     def arg(self) -> str | None:

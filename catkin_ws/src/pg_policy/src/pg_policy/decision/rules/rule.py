@@ -156,3 +156,15 @@ class Rule:
         """How far (cells) from a cell `adjust` reads the map to compute that cell's value: 0 for rules that do not
         reshape the map, None when unknown (then a windowed Q map gets a generous margin). Default: the kind's."""
         return self.rule_kind().reach
+
+
+def parse_metres(rule: str, arg: str, what: str) -> float:
+    """A distance in metres (>= 0) from the argument of `rule`; ValueError naming the rule and `what` the distance is
+    (e.g. "radius") for a non-number or a negative one."""
+    try:
+        value = float(arg)
+    except ValueError:
+        raise ValueError(f"rule {rule!r}: the argument is the {what} in metres, got {arg!r}") from None
+    if not value >= 0:
+        raise ValueError(f"rule {rule!r}: the {what} must be >= 0 m, got {arg!r}")
+    return value
