@@ -37,8 +37,8 @@ class LandingGuard(Rule):
     name = "push_landing"
     order = 50
     kind = "preference"  # in a dense pile every push starts over an object: then the push guards' other tests decide
-    option = PolicyOption("push_landing", "switch", "refuse pushes whose closed fingers would come down on top of an "
-                          "object: on or off", rule="push_landing")
+    option = PolicyOption("push_landing", "switch", "prefer pushes whose closed fingers do not come down on top of an "
+                          "object (while one passes the other push rules): on or off", rule="push_landing")
     primitive = "push"
 
     def __init__(self, geometry: Geometry, max_cover: float = MAX_COVER, tol_m: float = TOL_M,
