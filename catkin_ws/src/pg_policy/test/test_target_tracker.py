@@ -206,3 +206,28 @@ def test_delta_e94_is_cie94_and_weighs_hue_over_shading():
         1.3950, abs=1e-4)
     red, shaded, orange = np.array([47.3, 51.7, 28.8]), np.array([61.0, 62.6, 34.8]), np.array([60.0, 40.0, 60.0])
     assert delta_e94(red, shaded) < 0.5 * delta_e94(red, orange)  # a tilted red face is nearer red than orange
+
+
+def test_a_target_that_did_not_move_keeps_its_cells_when_a_look_alike_is_pushed_against_it():
+    tracker = TargetTracker()
+    first = _blocks((100, 100, RED), (100, 160, RED))
+    target = np.zeros((224, 224), bool)
+    target[100:120, 100:120] = True
+    tracker.start(first, target)
+    track = tracker.update(_blocks((100, 100, RED), (100, 120, RED)), (0.0, 0.0))  # now touching: one segment
+    assert np.array_equal(track.mask, target) and not track.unsure
+    assert "in place" in track.why and "touching object left out" in track.why
+
+
+def test_a_target_that_did_not_move_grows_by_what_a_removed_neighbour_uncovers():
+    first = _blocks((100, 100, RED))
+    first.height[100:120, 110:130] = 0.05  # a higher blue block covers the target's right half
+    first.color[100:120, 110:130] = BLUE
+    target = np.zeros((224, 224), bool)
+    target[100:120, 100:110] = True
+    tracker = TargetTracker()
+    tracker.start(first, target)
+    track = tracker.update(_blocks((100, 100, RED)))  # the blue block is gone
+    truth = np.zeros((224, 224), bool)
+    truth[100:120, 100:120] = True
+    assert _iou(track.mask, truth) >= 0.9 and "in place" in track.why

@@ -2,8 +2,17 @@
 
 `TargetTracker.start(hm, mask)` records the target's appearance in its first view: median CIE Lab colour, area
 (cells), median and top height (m) and shape (first Hu moment, axis ratio), and its place (the mask).
-`update(hm, shift_xy)` segments each new heightmap (pg_policy.perception.segmentation.segment_objects) and scores
-every segment against that record; each term lies in [0, 1]:
+`update(hm, shift_xy)` segments each new heightmap (pg_policy.perception.segmentation.segment_objects) and first
+compares it with the heightmap the target was last found in: a cell is unchanged when its height stays within
+STILL_DEPTH_M and its colour within STILL_COLOUR. When STAY_FRACTION of the last mask is unchanged, the target did
+not move (the action went elsewhere): it keeps its unchanged cells and takes in the segments they mostly fill; where
+those hold more than MERGE_RATIO times the reference's area (a look-alike was pushed against it), only the cells that
+neither rose (something moved in) nor still show another segment of the last view. This "in place" track is sure,
+and its form (area, heights, shape) becomes the reference: a target partly covered in its first view grows to what
+a removed neighbour uncovers.
+
+Otherwise the target moved, and every segment, less the unchanged cells that were not the target's (neighbours
+that did not move), is scored against the first view's record; each term lies in [0, 1]:
 
 - colour: exp(-dE / COLOUR_SCALE), dE the CIE94 colour difference (`delta_e94`) with lightness weighted by
   LIGHTNESS_WEIGHT: shading and a tilted face change lightness and chroma together and leave the hue, which CIE94
@@ -47,7 +56,13 @@ import cv2
 import numpy as np
 
 from pg_core.heightmap import Heightmap
-from pg_policy.perception.segmentation import LIGHTNESS_WEIGHT, lab_image, segment_objects
+from pg_policy.perception.segmentation import (
+    LIGHTNESS_WEIGHT,
+    MIN_OBJECT_CELLS,
+    lab_image,
+    object_cells,
+    segment_objects,
+)
 
 COLOUR_SCALE = 12.0  # CIE94 difference (lightness weighted) at which the colour term falls to 1/e
 HEIGHT_SCALE_M = 0.01  # median height difference (m) at which the height term falls to 1/e
@@ -64,6 +79,9 @@ MERGE_RATIO = 1.8  # a segment over this many times the first view's area that o
 CROP_CELLS = 3  # a merged segment is cut to its cells within this many cells of the predicted mask
 REFIND_SCORE = 0.8  # a target not found near its place is re-found where colour and form alone score this much
 REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
+STILL_DEPTH_M = 0.003  # a cell is unchanged between two views when its height differs by less than this (m) ...
+STILL_COLOUR = 10.0  # ... and its Lab colour (lightness weighted) by less than this
+STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,13 +162,15 @@ class TargetTracker:
         self.reference: Appearance | None = None  # the first view's appearance
         self.last_mask: np.ndarray | None = None  # where the target was last seen ((H, W) bool)
         self.resolution = 0.0  # m per cell of the heightmaps tracked
+        self.last_hm: Heightmap | None = None  # the heightmap last_mask was found in
+        self.last_labels: np.ndarray | None = None  # that heightmap's segment_objects labels
 
     def start(self, hm: Heightmap, mask: np.ndarray) -> Track:
         """Record the target `mask` ((H, W) bool, non-empty) as seen in `hm`; returns it as a sure Track.
         Raises ValueError for a mask of another shape than the heightmap or without a cell."""
         mask = _check_mask(hm, mask)
         self.reference = describe(hm, mask)
-        self.last_mask = mask.copy()
+        self._found(hm, segment_objects(hm), mask)
         self.resolution = float(hm.resolution)
         return Track(mask.copy(), 1.0, False, "first view")
 
@@ -170,6 +190,11 @@ class TargetTracker:
         if labels.max() == 0:
             return Track(np.zeros_like(self.last_mask), 0.0, True, "no object in view")
         lab = lab_image(hm.color)
+        still, arrived = self._changes(hm, lab)
+        stay = self.last_mask & still
+        if stay.sum() >= STAY_FRACTION * self.last_mask.sum():
+            return self._in_place(hm, labels, lab, stay, still, arrived)
+        others = still & ~self.last_mask  # cells of other objects that did not move
         ref = self.reference
         cen = describe(hm, self.last_mask, lab).centroid
         gate = (GATE_M + math.hypot(dx, dy)) / self.resolution  # cells
@@ -181,7 +206,9 @@ class TargetTracker:
         grow = np.ones((2 * CROP_CELLS + 1,) * 2, np.uint8)
         scored = []
         for label in range(1, int(labels.max()) + 1):
-            whole = labels == label
+            whole = (labels == label) & ~others
+            if whole.sum() < MIN_OBJECT_CELLS:
+                continue
             for predicted, expected in places:
                 merged = int(whole.sum()) > MERGE_RATIO * ref.area and bool((whole & predicted).any())
                 seg = whole & (cv2.dilate(predicted.astype(np.uint8), grow) > 0) if merged else whole
@@ -200,7 +227,7 @@ class TargetTracker:
         detail = "colour {:.2f} form {:.2f} overlap {:.2f} near {:.2f}".format(*terms)
         if best < FOUND_SCORE:
             return self._refind(hm, labels, lab, f"best segment scores {best:.2f} < {FOUND_SCORE} ({detail})")
-        self.last_mask = mask.copy()
+        self._found(hm, labels, mask)
         runner = scored[1][0] if len(scored) > 1 else 0.0
         if merged:
             return Track(mask, float(best), True,
@@ -210,6 +237,53 @@ class TargetTracker:
         if best - runner < MARGIN:
             return Track(mask, float(best), True, f"ambiguous: runner-up scores {runner:.2f} against {best:.2f}")
         return Track(mask, float(best), False, f"match {best:.2f} ({detail})")
+
+    def _changes(self, hm: Heightmap, lab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(still, arrived), (H, W) bool each, against the heightmap the target was last found in: `still` the object
+        cells of `hm` whose height and colour stayed within STILL_DEPTH_M and STILL_COLOUR; `arrived` the cells
+        that rose by STILL_DEPTH_M or more (something moved in)."""
+        assert self.last_hm is not None
+        before = self.last_hm
+        both = np.asarray(before.valid, bool) & np.asarray(hm.valid, bool)
+        rise = np.asarray(hm.height, np.float32) - np.asarray(before.height, np.float32)
+        weights = np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
+        colour = np.linalg.norm((lab - lab_image(before.color)) * weights, axis=-1)
+        still = both & (np.abs(rise) < STILL_DEPTH_M) & (colour < STILL_COLOUR) & object_cells(hm)
+        return still, both & (rise >= STILL_DEPTH_M)
+
+    def _in_place(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, stay: np.ndarray, still: np.ndarray,
+                  arrived: np.ndarray) -> Track:
+        """The target that did not move (STAY_FRACTION of its last mask unchanged): its unchanged cells `stay` and
+        the segments they mostly fill, whole while that holds at most MERGE_RATIO times the reference's area; beyond
+        it (a neighbour merged in) only their cells that neither rose (something moved in) nor stayed the cells of
+        another segment of the last view. While within that area the form of the reference follows the target (what
+        a removed neighbour uncovered); the colour stays the first view's."""
+        assert self.reference is not None and self.last_mask is not None and self.last_labels is not None
+        segs = np.zeros_like(stay)
+        for label in np.unique(labels[stay]):
+            seg = labels == label
+            if label and 2 * int((seg & stay).sum()) >= min(int(seg.sum()), int(stay.sum())):
+                segs |= seg
+        limit = MERGE_RATIO * self.reference.area
+        whole = int((segs | stay).sum()) <= limit
+        if not whole:
+            mine = np.unique(self.last_labels[self.last_mask])
+            others = still & (self.last_labels > 0) & ~np.isin(self.last_labels, mine[mine > 0])
+            segs &= ~others & ~arrived
+        _, parts = cv2.connectedComponents((stay | segs).astype(np.uint8), connectivity=8)
+        mask = np.isin(parts, np.unique(parts[stay]))
+        if mask.sum() <= limit:
+            seen = describe(hm, mask, lab)
+            self.reference = Appearance(self.reference.lab, seen.area, seen.height, seen.top, seen.hu1, seen.ratio,
+                                        seen.centroid)
+        self._found(hm, labels, mask)
+        share = 100 * stay.sum() / max(int(mask.sum()), 1)
+        return Track(mask.copy(), 1.0, False, f"in place: {share:.0f} % of its cells unchanged"
+                     + ("" if whole else ", a touching object left out"))
+
+    def _found(self, hm: Heightmap, labels: np.ndarray, mask: np.ndarray) -> None:
+        """Remember `mask` as the target's place, seen in `hm` segmented as `labels`."""
+        self.last_mask, self.last_hm, self.last_labels = mask.copy(), hm, labels
 
     def _refind(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, why: str) -> Track:
         """The target looked for anywhere by appearance (module docstring), or an empty track saying `why` not."""
@@ -223,7 +297,7 @@ class TargetTracker:
         if scored and scored[0][0] >= REFIND_SCORE and (len(scored) == 1 or
                                                         scored[0][0] - scored[1][0] >= REFIND_MARGIN):
             score, colour, form, mask = scored[0]
-            self.last_mask = mask.copy()
+            self._found(hm, labels, mask)
             return Track(mask, float(score), True, f"re-found by appearance {score:.2f} (colour {colour:.2f} form "
                          f"{form:.2f}; not found near its place: {why})")
         return Track(np.zeros_like(self.last_mask), 0.0, True, f"not found: {why}")
