@@ -101,6 +101,20 @@ def test_one_uniform_block_is_one_object():
     assert segment_objects(hm).max() == 1 and segment_at(hm, 107, 95).sum() == 450
 
 
+def test_a_face_steep_in_the_middle_is_one_object():
+    """A curved top seen from above, 4 x 5 cm: gentle (1 mm per 2 mm cell) for 10 cells, steep (3.5 mm per cell, a
+    7 mm span over 3 x 3 cells) for 6, gentle again for 10. It bends by 2.5 mm per cell at most, so no depth edge
+    crosses it and it stays one object (a steep strip is no border between two)."""
+    slope = np.r_[np.full(10, 0.001), np.full(6, 0.0035), np.full(10, 0.001)].astype(np.float32)
+    height = np.zeros((224, 224), np.float32)
+    height[100:120, 90:116] = 0.005 + np.cumsum(slope)
+    color = np.full((224, 224, 3), 200, np.uint8)
+    color[100:120, 90:116] = (90, 140, 160)
+    labels = segment_objects(Heightmap(color, height, np.ones((224, 224), bool), GEO.heightmap.resolution,
+                                       GEO.workspace.bounds))
+    assert labels.max() == 1 and (labels[100:120, 90:116] == 1).mean() >= 0.95
+
+
 @pytest.mark.parametrize("row, col, why", [(10, 10, "bare table"), (-1, 95, "outside"), (107, 224, "outside"),
                                            (107, 95, "invalid")])
 def test_cells_naming_no_object_are_refused(row, col, why):

@@ -6,8 +6,10 @@ than SEGMENT_HEIGHT_M (4 mm, half of pg_core.heightmap.OBJECT_HEIGHT_M: a fork, 
 flat stands 4-7 mm); every other cell is table (or unseen) and carries label 0.
 
 Method (OpenCV and scipy.ndimage):
-1. edges: a cell lies on an edge when, within its 3 x 3 neighbourhood, the height spans at least DEPTH_EDGE_M (a step
-   between objects of different height, or an object and the table) or the colour spans at least COLOUR_EDGE (the
+1. edges: a cell lies on an edge when, within its 3 x 3 neighbourhood, the height bends by at least DEPTH_EDGE_M
+   (|h(p + d) + h(p - d) - 2 h(p)| along a row, column or diagonal: the height of a step between objects, or an
+   object and the table, while any plane, however steep, bends by nothing: a tilted or curved top is no edge) or
+   the colour spans at least COLOUR_EDGE (the
    CIE Lab distance between the extreme neighbours, chroma weighted above lightness so that shading on a curved top
    is no edge); invalid cells count as edges too (the unseen side of an object is where two objects meet);
 2. seeds: the object cells off every edge, shrunk by SEED_ERODE_CELLS, split into 8-connected components; components
@@ -44,7 +46,7 @@ from scipy import ndimage
 
 from pg_core.heightmap import Heightmap
 
-DEPTH_EDGE_M = 0.006  # height span (m) within a 3 x 3 neighbourhood that makes a depth edge (3 mm per 2 mm cell)
+DEPTH_EDGE_M = 0.006  # height bend (m) within a 3 x 3 neighbourhood that makes a depth edge (a 6 mm step)
 COLOUR_EDGE = 18.0  # weighted Lab span within a 3 x 3 neighbourhood that makes a colour edge (about 18 delta-E)
 LIGHTNESS_WEIGHT = 0.35  # weight of Lab lightness against chroma in the colour span (shading changes lightness)
 SEED_ERODE_CELLS = 1  # seeds are shrunk by this many cells (8-neighbourhood) off every edge
@@ -86,11 +88,23 @@ def _span(image: np.ndarray) -> np.ndarray:
     return cv2.morphologyEx(image, cv2.MORPH_GRADIENT, kernel, borderType=cv2.BORDER_REPLICATE)
 
 
+def _bend(height: np.ndarray) -> np.ndarray:
+    """Per-cell largest |h(p + d) + h(p - d) - 2 h(p)| over the 4 directions d of the 3 x 3 neighbourhood: 0 on
+    any plane, however steep, and the step's height beside a step."""
+    pad = cv2.copyMakeBorder(height, 1, 1, 1, 1, cv2.BORDER_REPLICATE)
+    h, w = height.shape
+    c = pad[1:-1, 1:-1]
+    out = np.zeros_like(height)
+    for (r1, c1), (r2, c2) in (((0, 1), (2, 1)), ((1, 0), (1, 2)), ((0, 0), (2, 2)), ((0, 2), (2, 0))):
+        out = np.maximum(out, np.abs(pad[r1 : r1 + h, c1 : c1 + w] + pad[r2 : r2 + h, c2 : c2 + w] - 2 * c))
+    return out
+
+
 def edge_strength(hm: Heightmap) -> np.ndarray:
-    """(H, W) float32 edge strength, 1.0 at the edge thresholds: the larger of the height span / DEPTH_EDGE_M and
+    """(H, W) float32 edge strength, 1.0 at the edge thresholds: the larger of the height bend / DEPTH_EDGE_M and
     the weighted Lab span / COLOUR_EDGE over each cell's 3 x 3 neighbourhood; invalid cells are edges (2.0)."""
     height, color, valid = _check(hm)
-    depth = _span(np.where(valid, height, 0.0).astype(np.float32)) / DEPTH_EDGE_M
+    depth = _bend(np.where(valid, height, 0.0).astype(np.float32)) / DEPTH_EDGE_M
     lab = lab_image(color)
     weights = np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
     spans = np.stack([_span(np.ascontiguousarray(lab[..., i])) for i in range(3)], axis=-1) * weights
