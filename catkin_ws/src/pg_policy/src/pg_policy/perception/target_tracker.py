@@ -6,7 +6,7 @@
 compares it with the heightmap the target was last found in: a cell is unchanged when its height stays within
 STILL_DEPTH_M and its colour within STILL_COLOUR. When STAY_FRACTION of the last mask is unchanged, the target did
 not move (the action went elsewhere): it keeps its unchanged cells and takes in the segments they mostly fill; where
-those hold more than MERGE_RATIO times the reference's area (a look-alike was pushed against it), only the cells that
+those hold more than IN_PLACE_RATIO times the reference's area (a look-alike was pushed against it), only the cells that
 neither rose (something moved in) nor still show another segment of the last view. This "in place" track is sure,
 and its form (area, heights, shape) becomes the reference: a target partly covered in its first view grows to what
 a removed neighbour uncovers.
@@ -26,7 +26,7 @@ that did not move), is scored against the first view's record; each term lies in
 
 Two guards keep a track from jumping. A segment whose centroid lies farther than GATE_M plus the predicted
 displacement from the predicted centroid is not the target (a push carries an object push_length at most; a failed
-grasp moves it a few centimetres). A segment more than MERGE_RATIO times the target's first-view area that overlaps
+grasp moves it a few centimetres). A segment more than MERGE_RATIO times the reference's area that overlaps
 the predicted mask (the target merged with a touching neighbour of its colour) is cut to the cells within
 CROP_CELLS of the predicted mask, and the track is unsure. A predicted displacement may be wrong (the push missed
 the target), so every segment is also scored against the place the target was last seen, unmoved, and keeps the
@@ -75,13 +75,15 @@ SURE_SCORE = 0.65  # a found target scoring below this is unsure
 MARGIN = 0.08  # a runner-up scoring within this of the best makes the track unsure
 TOP_QUANTILE = 0.9  # the target's "top" height is this quantile of its cells' heights
 GATE_M = 0.12  # a segment's centroid this far (m) beyond the predicted displacement from the predicted one: not it
-MERGE_RATIO = 1.8  # a segment over this many times the first view's area that overlaps the prediction is merged
+MERGE_RATIO = 3.5  # a segment over this many times the reference area that overlaps the prediction is merged (a
+# target partly covered in its first view grows as a push uncovers it: at 1.8 most "merges" were such targets)
 CROP_CELLS = 3  # a merged segment is cut to its cells within this many cells of the predicted mask
 REFIND_SCORE = 0.8  # a target not found near its place is re-found where colour and form alone score this much
 REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
 STILL_DEPTH_M = 0.003  # a cell is unchanged between two views when its height differs by less than this (m) ...
 STILL_COLOUR = 10.0  # ... and its Lab colour (lightness weighted) by less than this
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
+IN_PLACE_RATIO = 1.8  # segments over this many times the reference area around a target in place hold a neighbour
 
 
 @dataclass(frozen=True, eq=False)
@@ -254,7 +256,7 @@ class TargetTracker:
     def _in_place(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, stay: np.ndarray, still: np.ndarray,
                   arrived: np.ndarray) -> Track:
         """The target that did not move (STAY_FRACTION of its last mask unchanged): its unchanged cells `stay` and
-        the segments they mostly fill, whole while that holds at most MERGE_RATIO times the reference's area; beyond
+        the segments they mostly fill, whole while that holds at most IN_PLACE_RATIO times the reference's area; beyond
         it (a neighbour merged in) only their cells that neither rose (something moved in) nor stayed the cells of
         another segment of the last view. While within that area the form of the reference follows the target (what
         a removed neighbour uncovered); the colour stays the first view's."""
@@ -264,7 +266,7 @@ class TargetTracker:
             seg = labels == label
             if label and 2 * int((seg & stay).sum()) >= min(int(seg.sum()), int(stay.sum())):
                 segs |= seg
-        limit = MERGE_RATIO * self.reference.area
+        limit = IN_PLACE_RATIO * self.reference.area
         whole = int((segs | stay).sum()) <= limit
         if not whole:
             mine = np.unique(self.last_labels[self.last_mask])
