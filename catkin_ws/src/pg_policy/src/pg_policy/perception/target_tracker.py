@@ -5,11 +5,11 @@
 `update(hm, shift_xy)` segments each new heightmap (pg_policy.perception.segmentation.segment_objects) and first
 compares it with the heightmap the target was last found in: a cell is unchanged when its height stays within
 STILL_DEPTH_M and its colour within STILL_COLOUR. When STAY_FRACTION of the last mask is unchanged, the target did
-not move (the action went elsewhere): it keeps its unchanged cells and takes in the segments they mostly fill; where
-those hold more than IN_PLACE_RATIO times the reference's area (a look-alike was pushed against it), only the cells that
-neither rose (something moved in) nor still show another segment of the last view. This "in place" track is sure,
-and its form (area, heights, shape) becomes the reference: a target partly covered in its first view grows to what
-a removed neighbour uncovers.
+not move (the action went elsewhere): it keeps its unchanged cells and takes in the cells of the segments they
+mostly fill that did not rise (something moved in there), and its form (area, heights, shape) becomes the
+reference: a target partly covered in its first view grows to what a removed neighbour uncovers. Where those cells
+hold more than IN_PLACE_RATIO times the reference's area (a look-alike lies against it, in one segment), it keeps
+its unchanged cells alone. This "in place" track is sure.
 
 Otherwise the target moved, and every segment, less the unchanged cells that were not the target's (neighbours
 that did not move), is scored against the first view's record; each term lies in [0, 1]:
@@ -83,7 +83,7 @@ REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
 STILL_DEPTH_M = 0.003  # a cell is unchanged between two views when its height differs by less than this (m) ...
 STILL_COLOUR = 10.0  # ... and its Lab colour (lightness weighted) by less than this
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
-IN_PLACE_RATIO = 1.8  # segments over this many times the reference area around a target in place hold a neighbour
+IN_PLACE_RATIO = 2.5  # a target in place grows to at most this many times the reference area (half covered: 2)
 
 
 @dataclass(frozen=True, eq=False)
@@ -165,14 +165,13 @@ class TargetTracker:
         self.last_mask: np.ndarray | None = None  # where the target was last seen ((H, W) bool)
         self.resolution = 0.0  # m per cell of the heightmaps tracked
         self.last_hm: Heightmap | None = None  # the heightmap last_mask was found in
-        self.last_labels: np.ndarray | None = None  # that heightmap's segment_objects labels
 
     def start(self, hm: Heightmap, mask: np.ndarray) -> Track:
         """Record the target `mask` ((H, W) bool, non-empty) as seen in `hm`; returns it as a sure Track.
         Raises ValueError for a mask of another shape than the heightmap or without a cell."""
         mask = _check_mask(hm, mask)
         self.reference = describe(hm, mask)
-        self._found(hm, segment_objects(hm), mask)
+        self._found(hm, mask)
         self.resolution = float(hm.resolution)
         return Track(mask.copy(), 1.0, False, "first view")
 
@@ -195,7 +194,7 @@ class TargetTracker:
         still, arrived = self._changes(hm, lab)
         stay = self.last_mask & still
         if stay.sum() >= STAY_FRACTION * self.last_mask.sum():
-            return self._in_place(hm, labels, lab, stay, still, arrived)
+            return self._in_place(hm, labels, lab, stay, arrived)
         others = still & ~self.last_mask  # cells of other objects that did not move
         ref = self.reference
         cen = describe(hm, self.last_mask, lab).centroid
@@ -229,7 +228,7 @@ class TargetTracker:
         detail = "colour {:.2f} form {:.2f} overlap {:.2f} near {:.2f}".format(*terms)
         if best < FOUND_SCORE:
             return self._refind(hm, labels, lab, f"best segment scores {best:.2f} < {FOUND_SCORE} ({detail})")
-        self._found(hm, labels, mask)
+        self._found(hm, mask)
         runner = scored[1][0] if len(scored) > 1 else 0.0
         if merged:
             return Track(mask, float(best), True,
@@ -253,39 +252,35 @@ class TargetTracker:
         still = both & (np.abs(rise) < STILL_DEPTH_M) & (colour < STILL_COLOUR) & object_cells(hm)
         return still, both & (rise >= STILL_DEPTH_M)
 
-    def _in_place(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, stay: np.ndarray, still: np.ndarray,
+    def _in_place(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, stay: np.ndarray,
                   arrived: np.ndarray) -> Track:
         """The target that did not move (STAY_FRACTION of its last mask unchanged): its unchanged cells `stay` and
-        the segments they mostly fill, whole while that holds at most IN_PLACE_RATIO times the reference's area; beyond
-        it (a neighbour merged in) only their cells that neither rose (something moved in) nor stayed the cells of
-        another segment of the last view. While within that area the form of the reference follows the target (what
-        a removed neighbour uncovered); the colour stays the first view's."""
-        assert self.reference is not None and self.last_mask is not None and self.last_labels is not None
+        the cells of the segments they mostly fill that did not rise (a rise is something that moved in), while
+        that holds at most IN_PLACE_RATIO times the reference's area, the form of the reference then following it
+        (what a removed neighbour uncovered; the colour stays the first view's); beyond that area (a look-alike
+        lies against it) `stay` alone."""
+        assert self.reference is not None
         segs = np.zeros_like(stay)
         for label in np.unique(labels[stay]):
             seg = labels == label
             if label and 2 * int((seg & stay).sum()) >= min(int(seg.sum()), int(stay.sum())):
                 segs |= seg
-        limit = IN_PLACE_RATIO * self.reference.area
-        whole = int((segs | stay).sum()) <= limit
-        if not whole:
-            mine = np.unique(self.last_labels[self.last_mask])
-            others = still & (self.last_labels > 0) & ~np.isin(self.last_labels, mine[mine > 0])
-            segs &= ~others & ~arrived
-        _, parts = cv2.connectedComponents((stay | segs).astype(np.uint8), connectivity=8)
+        grown = stay | (segs & ~arrived)
+        whole = int(grown.sum()) <= IN_PLACE_RATIO * self.reference.area
+        _, parts = cv2.connectedComponents((grown if whole else stay).astype(np.uint8), connectivity=8)
         mask = np.isin(parts, np.unique(parts[stay]))
-        if mask.sum() <= limit:
+        if whole:
             seen = describe(hm, mask, lab)
             self.reference = Appearance(self.reference.lab, seen.area, seen.height, seen.top, seen.hu1, seen.ratio,
                                         seen.centroid)
-        self._found(hm, labels, mask)
+        self._found(hm, mask)
+        left_out = ", a touching object left out" if (segs & ~mask).sum() >= MIN_OBJECT_CELLS else ""
         share = 100 * stay.sum() / max(int(mask.sum()), 1)
-        return Track(mask.copy(), 1.0, False, f"in place: {share:.0f} % of its cells unchanged"
-                     + ("" if whole else ", a touching object left out"))
+        return Track(mask.copy(), 1.0, False, f"in place: {share:.0f} % of its cells unchanged{left_out}")
 
-    def _found(self, hm: Heightmap, labels: np.ndarray, mask: np.ndarray) -> None:
-        """Remember `mask` as the target's place, seen in `hm` segmented as `labels`."""
-        self.last_mask, self.last_hm, self.last_labels = mask.copy(), hm, labels
+    def _found(self, hm: Heightmap, mask: np.ndarray) -> None:
+        """Remember `mask` as the target's place, seen in `hm`."""
+        self.last_mask, self.last_hm = mask.copy(), hm
 
     def _refind(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, why: str) -> Track:
         """The target looked for anywhere by appearance (module docstring), or an empty track saying `why` not."""
@@ -299,7 +294,7 @@ class TargetTracker:
         if scored and scored[0][0] >= REFIND_SCORE and (len(scored) == 1 or
                                                         scored[0][0] - scored[1][0] >= REFIND_MARGIN):
             score, colour, form, mask = scored[0]
-            self._found(hm, labels, mask)
+            self._found(hm, mask)
             return Track(mask, float(score), True, f"re-found by appearance {score:.2f} (colour {colour:.2f} form "
                          f"{form:.2f}; not found near its place: {why})")
         return Track(np.zeros_like(self.last_mask), 0.0, True, f"not found: {why}")
