@@ -161,7 +161,7 @@ class TargetTracker:
     """Follows one object through successive heightmaps of the same grid (see the module docstring)."""
 
     def __init__(self) -> None:
-        self.reference: Appearance | None = None  # the first view's appearance
+        self.reference: Appearance | None = None  # the first view's appearance (form: the latest in-place view)
         self.last_mask: np.ndarray | None = None  # where the target was last seen ((H, W) bool)
         self.resolution = 0.0  # m per cell of the heightmaps tracked
         self.last_hm: Heightmap | None = None  # the heightmap last_mask was found in
