@@ -56,6 +56,11 @@ def test_centre_point_lies_on_the_mask_and_iou():
     square[5:15, 20:30] = True
     pt = centre_point(hm, square)
     assert (pt.x, pt.y) == pytest.approx((0.05, 0.02))
+    hm.height[square] = 0.02
+    hm.height[8:12, 23:27] = 0.003  # a thin part at the centre: a point there would name bare table
+    pt = centre_point(hm, square)
+    row, col = world_to_pixel(pt.x, pt.y, hm.bounds, hm.resolution)
+    assert square[row, col] and hm.height[row, col] == pytest.approx(0.02)
     half = np.roll(square, 5, axis=1)  # overlaps half of it
     assert iou(square, square) == 1.0 and iou(square, half) == pytest.approx(50 / 150)
     assert iou(np.zeros_like(square), np.zeros_like(square)) is None

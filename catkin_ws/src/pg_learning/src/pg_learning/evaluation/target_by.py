@@ -5,7 +5,8 @@
   pg_core.target_mask.target_mask of the colour (the runner's own path, unchanged);
 - ``point``: a pg_policy.target_loop.target_spec.PointTarget at the centre of the simulator's ground-truth target
   mask of the first view: its centroid, or, when the centroid cell is not the target's (a hollow or occluded
-  shape), the target cell nearest to it, so the point lies on the target;
+  shape) or is too thin to hold an object (a 4 mm flat part), the target cell nearest to it that does, so the
+  point lies on the target where a user would click;
 - ``mask``: a MaskTarget of that ground-truth mask of the first view.
 After the first view the trial's TargetFollower tracks the target: no later ground truth reaches the policy.
 
@@ -27,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from pg_core.heightmap import Heightmap, pixel_to_world
+from pg_policy.perception.segmentation import object_cells
 from pg_policy.target_loop.target_spec import MaskTarget, PointTarget, TargetFollower
 from pg_sim.world.recolour import UNIQUE
 
@@ -51,11 +53,16 @@ def iou(a: np.ndarray, b: np.ndarray) -> float | None:
 
 
 def centre_point(hm: Heightmap, truth: np.ndarray) -> PointTarget:
-    """The PointTarget at the centre of the non-empty (H, W) bool mask `truth` (module docstring: ``point``)."""
+    """The PointTarget at the centre of the non-empty (H, W) bool mask `truth` (module docstring: ``point``); the
+    nearest cell of `truth` that holds an object (segmentation.object_cells: a thin part 4 mm high or less is no
+    place to click) when the centre's cell does not, any cell of `truth` when none does."""
     rows, cols = np.nonzero(truth)
     r, c = float(rows.mean()), float(cols.mean())
     cell = (int(math.floor(r)), int(math.floor(c)))
-    if not truth[cell]:
+    on = truth & object_cells(hm)
+    on = on if on.any() else truth
+    if not on[cell]:
+        rows, cols = np.nonzero(on)
         k = int(np.argmin((rows - r) ** 2 + (cols - c) ** 2))
         r, c = float(rows[k]), float(cols[k])
     x, y = pixel_to_world(r, c, hm.bounds, hm.resolution)
