@@ -231,3 +231,13 @@ def test_a_target_that_did_not_move_grows_by_what_a_removed_neighbour_uncovers()
     truth = np.zeros((224, 224), bool)
     truth[100:120, 100:120] = True
     assert _iou(track.mask, truth) >= 0.9 and "in place" in track.why
+
+
+def test_when_the_tracked_object_is_lifted_the_unmoved_look_alike_beside_it_is_the_target():
+    tracker = TargetTracker()
+    first = _blocks((100, 100, RED), (100, 130, RED), (20, 200, RED))
+    wrong = np.zeros((224, 224), bool)
+    wrong[100:120, 100:120] = True  # the track was on the wrong block, which a grasp then lifted
+    tracker.start(first, wrong)
+    track = tracker.update(_blocks((100, 130, RED), (20, 200, RED)))
+    assert track.mask[105:115, 135:145].all() and not track.mask[20:40, 200:220].any(), track.why

@@ -12,7 +12,8 @@ hold more than IN_PLACE_RATIO times the reference's area (a look-alike lies agai
 its unchanged cells alone. This "in place" track is sure.
 
 Otherwise the target moved, and every segment, less the unchanged cells that were not the target's (neighbours
-that did not move), is scored against the first view's record; each term lies in [0, 1]:
+that did not move), is scored against the first view's record; when none is found so, every whole segment is
+(the last mask was another object, which a grasp lifted: the target stayed where it was). Each term lies in [0, 1]:
 
 - colour: exp(-dE / COLOUR_SCALE), dE the CIE94 colour difference (`delta_e94`) with lightness weighted by
   LIGHTNESS_WEIGHT: shading and a tilted face change lightness and chroma together and leave the hue, which CIE94
@@ -161,7 +162,7 @@ class TargetTracker:
     """Follows one object through successive heightmaps of the same grid (see the module docstring)."""
 
     def __init__(self) -> None:
-        self.reference: Appearance | None = None  # the first view's appearance (form: the latest in-place view)
+        self.reference: Appearance | None = None  # the first view's appearance
         self.last_mask: np.ndarray | None = None  # where the target was last seen ((H, W) bool)
         self.resolution = 0.0  # m per cell of the heightmaps tracked
         self.last_hm: Heightmap | None = None  # the heightmap last_mask was found in
@@ -196,7 +197,6 @@ class TargetTracker:
         if stay.sum() >= STAY_FRACTION * self.last_mask.sum():
             return self._in_place(hm, labels, lab, stay, arrived)
         others = still & ~self.last_mask  # cells of other objects that did not move
-        ref = self.reference
         cen = describe(hm, self.last_mask, lab).centroid
         gate = (GATE_M + math.hypot(dx, dy)) / self.resolution  # cells
         # where the target should be: moved as predicted, and (a prediction can be wrong) where it was
@@ -204,23 +204,9 @@ class TargetTracker:
                    (cen[0] + dy / self.resolution, cen[1] + dx / self.resolution))]
         if dx or dy:
             places.append((self.last_mask, cen))
-        grow = np.ones((2 * CROP_CELLS + 1,) * 2, np.uint8)
-        scored = []
-        for label in range(1, int(labels.max()) + 1):
-            whole = (labels == label) & ~others
-            if whole.sum() < MIN_OBJECT_CELLS:
-                continue
-            for predicted, expected in places:
-                merged = int(whole.sum()) > MERGE_RATIO * ref.area and bool((whole & predicted).any())
-                seg = whole & (cv2.dilate(predicted.astype(np.uint8), grow) > 0) if merged else whole
-                seen = describe(hm, seg, lab)
-                if math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) > gate:
-                    continue
-                terms = self._terms(seen, seg, predicted, expected, ref)
-                score = W_COLOUR * terms[0] + W_FORM * terms[1] + W_PLACE * max(terms[2], terms[3])
-                scored.append((score, -label, terms, seg, merged))
-        scored = sorted(scored, key=lambda s: (s[0], s[1]), reverse=True)
-        scored = [s for k, s in enumerate(scored) if k == 0 or s[1] != scored[0][1]]  # runner-up: another segment
+        scored = self._score(hm, labels, lab, others, places, gate)
+        if not scored or scored[0][0] < FOUND_SCORE:  # the last mask was another object, lifted: the target stayed
+            scored = self._score(hm, labels, lab, np.zeros_like(others), places, gate)
         if not scored:
             return self._refind(hm, labels, lab, f"no object within {GATE_M + math.hypot(dx, dy):.2f} m of where "
                                 "it was expected")
@@ -238,6 +224,30 @@ class TargetTracker:
         if best - runner < MARGIN:
             return Track(mask, float(best), True, f"ambiguous: runner-up scores {runner:.2f} against {best:.2f}")
         return Track(mask, float(best), False, f"match {best:.2f} ({detail})")
+
+    def _score(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, others: np.ndarray,
+               places: list[tuple[np.ndarray, tuple[float, float]]], gate: float) -> list[tuple]:
+        """(score, -label, terms, mask, merged) of every segment less `others` within `gate` cells of a predicted
+        place, best first, each segment once (its better place)."""
+        assert self.reference is not None
+        ref = self.reference
+        grow = np.ones((2 * CROP_CELLS + 1,) * 2, np.uint8)
+        scored = []
+        for label in range(1, int(labels.max()) + 1):
+            whole = (labels == label) & ~others
+            if whole.sum() < MIN_OBJECT_CELLS:
+                continue
+            for predicted, expected in places:
+                merged = int(whole.sum()) > MERGE_RATIO * ref.area and bool((whole & predicted).any())
+                seg = whole & (cv2.dilate(predicted.astype(np.uint8), grow) > 0) if merged else whole
+                seen = describe(hm, seg, lab)
+                if math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) > gate:
+                    continue
+                terms = self._terms(seen, seg, predicted, expected, ref)
+                score = W_COLOUR * terms[0] + W_FORM * terms[1] + W_PLACE * max(terms[2], terms[3])
+                scored.append((score, -label, terms, seg, merged))
+        scored = sorted(scored, key=lambda s: (s[0], s[1]), reverse=True)
+        return [s for k, s in enumerate(scored) if k == 0 or s[1] != scored[0][1]]  # runner-up: another segment
 
     def _changes(self, hm: Heightmap, lab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(still, arrived), (H, W) bool each, against the heightmap the target was last found in: `still` the object
