@@ -1,16 +1,14 @@
 #!/usr/bin/env python3
 """rostest node of primitive_controller.test: /pg/execute_primitive against a fake dual arm.
 
-The fake arm (allowed here: it is the test fixture of the code around it) listens on both arms' trajectory and gripper
-topics, follows each JointTrajectory by linear interpolation in ROS time from its receipt, moves the fingers at the
-gripper's speed (stopping at `object_width` when closing on a simulated object) and publishes /joint_states at 100 Hz
-unless paused. Checks: a grasp succeeds and reports the held object; published trajectories respect the UR5e joint
-velocity limit; out-of-workspace points and unknown frames are refused with nothing published; a second call while
-one runs answers "busy"; a silent /joint_states gives a clear error within the timeout and the node keeps serving;
-NaN, negative, infinite and too large timeouts and non-finite positions or yaws are refused with the field named and
-no arm; a move that overruns says which limit ended it (the primitive's timeout or its planned duration plus
-goal_time_tolerance) and with what numbers; a request whose deadline has passed, also one that waited in the stopped
-(SIGSTOP) controller until after it, is refused with nothing published.
+The fake arm (fake_arms.FakeArms, the test fixture of the code around it) listens on both arms' trajectory and
+gripper topics and publishes /joint_states. Checks: a grasp succeeds and reports the held object; published
+trajectories respect the UR5e joint velocity limit; out-of-workspace points and unknown frames are refused with
+nothing published; a second call while one runs answers "busy"; a silent /joint_states gives a clear error within
+the timeout and the node keeps serving; NaN, negative, infinite and too large timeouts and non-finite positions or
+yaws are refused with the field named and no arm; a move that overruns says which limit ended it (the primitive's
+timeout or its planned duration plus goal_time_tolerance) and with what numbers; a request whose deadline has
+passed, also one that waited in the stopped (SIGSTOP) controller until after it, is refused with nothing published.
 """
 
 from __future__ import annotations
@@ -29,100 +27,14 @@ import rosgraph
 import rospy
 import rostest
 import tf2_ros
+from fake_arms import ARM_JOINTS, GEOMETRY, FakeArms
 from geometry_msgs.msg import PointStamped, TransformStamped
 from pg_msgs.srv import ExecutePrimitive, ExecutePrimitiveRequest
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64
-from trajectory_msgs.msg import JointTrajectory
-
-from pg_core.geometry import load
 
 PKG = "pg_control"
 SERVICE = "/pg/execute_primitive"
-ARMS = ("left", "right")
-ARM_JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
-              "wrist_3_joint")
-GEOMETRY = load()
 VMAX = GEOMETRY.robot.joint_velocity_limit
 CALL_TIMEOUT_S = 60.0  # wall seconds any single call may take in these tests
-
-
-class FakeArms:
-    """Both arms and grippers: follows commands in ROS time, publishes /joint_states, records what it received."""
-
-    def __init__(self) -> None:
-        self.lock = threading.Lock()
-        self.q = {arm: np.array(GEOMETRY.robot.arms[arm].home, dtype=float) for arm in ARMS}
-        self.opening = {arm: GEOMETRY.gripper.max_opening for arm in ARMS}
-        self.gripper_target = dict(self.opening)
-        self.active: dict[str, tuple[float, np.ndarray, np.ndarray]] = {}  # arm -> (t0, times, positions)
-        self.trajectories: list[tuple[str, JointTrajectory]] = []
-        self.gripper_commands: list[tuple[str, float]] = []
-        self.object_width: float | None = None  # closing stops here when set
-        self.paused = False
-        self.slowdown = 1.0  # trajectories are followed this many times slower (inf: a stuck arm)
-        self.pub = rospy.Publisher("/joint_states", JointState, queue_size=10)
-        self.subs = []
-        for arm in ARMS:
-            self.subs.append(rospy.Subscriber(f"/{arm}/scaled_pos_joint_traj_controller/command", JointTrajectory,
-                                              self._on_trajectory, callback_args=arm, queue_size=10))
-            self.subs.append(rospy.Subscriber(f"/{arm}/gripper/command", Float64, self._on_gripper,
-                                              callback_args=arm, queue_size=10))
-        self.last = rospy.get_time()
-        self.timer = rospy.Timer(rospy.Duration(0.01), self._tick)
-
-    def _on_trajectory(self, msg: JointTrajectory, arm: str) -> None:
-        times = np.array([p.time_from_start.to_sec() for p in msg.points])
-        positions = np.array([p.positions for p in msg.points])
-        order = [msg.joint_names.index(f"{arm}_{j}") for j in ARM_JOINTS]
-        with self.lock:
-            self.trajectories.append((arm, msg))
-            self.active[arm] = (rospy.get_time(), times, positions[:, order])
-
-    def _on_gripper(self, msg: Float64, arm: str) -> None:
-        with self.lock:
-            self.gripper_commands.append((arm, msg.data))
-            self.gripper_target[arm] = msg.data
-
-    def _tick(self, _event) -> None:
-        now = rospy.get_time()
-        with self.lock:
-            dt, self.last = now - self.last, now
-            for arm in ARMS:
-                if arm in self.active:
-                    t0, times, positions = self.active[arm]
-                    t = (now - t0) / self.slowdown
-                    self.q[arm] = np.array([np.interp(t, times, positions[:, j]) for j in range(6)])
-                    if t >= times[-1]:
-                        del self.active[arm]
-                target = self.gripper_target[arm]
-                if self.object_width is not None and target < self.object_width:
-                    target = self.object_width
-                step = 2 * GEOMETRY.gripper.finger_speed * dt
-                self.opening[arm] += float(np.clip(target - self.opening[arm], -step, step))
-            if self.paused:
-                return
-            msg = JointState()
-            msg.header.stamp = rospy.Time.now()
-            for arm in ARMS:
-                msg.name += [f"{arm}_{j}" for j in ARM_JOINTS]
-                msg.position += list(self.q[arm])
-                msg.name += [f"{arm}_gripper_finger1_joint", f"{arm}_gripper_finger2_joint"]
-                msg.position += [self.opening[arm] / 2, self.opening[arm] / 2]
-        try:
-            self.pub.publish(msg)
-        except rospy.ROSException:  # shutting down
-            pass
-
-    def set_slowdown(self, factor: float) -> None:
-        with self.lock:
-            self.slowdown = factor
-            if math.isinf(factor):
-                self.active.clear()  # a stuck arm drops what it was given
-
-    def received(self) -> tuple[int, int]:
-        with self.lock:
-            return len(self.trajectories), len(self.gripper_commands)
 
 
 def request(primitive: int, x: float, y: float, z: float, yaw: float = 0.0, frame: str = "world",
