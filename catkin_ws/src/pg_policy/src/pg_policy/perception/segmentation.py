@@ -9,9 +9,9 @@ Method (OpenCV and scipy.ndimage):
 1. edges: a cell lies on an edge when, within its 3 x 3 neighbourhood, the height bends by at least DEPTH_EDGE_M
    (|h(p + d) + h(p - d) - 2 h(p)| along a row, column or diagonal: the height of a step between objects, or an
    object and the table, while any plane, however steep, bends by nothing: a tilted or curved top is no edge) or
-   the colour spans at least COLOUR_EDGE (the
-   CIE Lab distance between the extreme neighbours, chroma weighted above lightness so that shading on a curved top
-   is no edge); invalid cells count as edges too (the unseen side of an object is where two objects meet);
+   the colour spans at least COLOUR_EDGE (the CIE Lab distance between the extreme neighbours, chroma weighted above
+   lightness so that shading on a curved top is no edge); invalid cells count as edges too (the unseen side of an
+   object is where two objects meet);
 2. seeds: the object cells off every edge, shrunk by SEED_ERODE_CELLS, split into 8-connected components; components
    smaller than MIN_SEED_CELLS are dropped (slivers between edges);
 3. watershed (scipy.ndimage.watershed_ift) of the edge strength from those seeds, the table being one more seed, so
