@@ -65,48 +65,6 @@ Eigen::Isometry3d cameraPose() {
   return t;
 }
 
-TEST(ProjectorConfig, LoadsWorkspaceYaml) {
-  const ProjectorConfig c = workspaceYamlConfig();
-  EXPECT_DOUBLE_EQ(c.bounds.x_min, -0.224);
-  EXPECT_DOUBLE_EQ(c.bounds.x_max, 0.224);
-  EXPECT_DOUBLE_EQ(c.bounds.y_min, -0.224);
-  EXPECT_DOUBLE_EQ(c.bounds.y_max, 0.224);
-  EXPECT_DOUBLE_EQ(c.bounds.z_min, 0.0);
-  EXPECT_DOUBLE_EQ(c.bounds.z_max, 0.4);
-  EXPECT_DOUBLE_EQ(c.resolution, 0.002);
-  EXPECT_EQ(c.world_frame, "world");
-  const HeightmapProjector projector(c);
-  EXPECT_EQ(projector.rows(), 224);
-  EXPECT_EQ(projector.cols(), 224);
-  // The projector's grid is the one pg_core::WorkspaceConfig defines.
-  const pg_core::WorkspaceConfig ws = pg_core::WorkspaceConfig::fromFile(PG_WORKSPACE_YAML);
-  EXPECT_EQ(projector.rows(), ws.rows());
-  EXPECT_EQ(projector.cols(), ws.cols());
-}
-
-// Configuration errors are pg_core::WorkspaceConfig's (see its own test); the projector adds its own checks.
-TEST(ProjectorConfig, ErrorsNameTheKey) {
-  const std::string ok_frames = "frames: {world: world}\n";
-  try {
-    pg_core::WorkspaceConfig::fromString(ok_frames +
-                                         "workspace: {x: [0, 1], y: [0, 1]}\nheightmap: {resolution: 0.1}\n");
-    FAIL() << "expected std::runtime_error";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("workspace.z"), std::string::npos) << e.what();
-  }
-  try {
-    pg_core::WorkspaceConfig::fromString(ok_frames +
-                                         "workspace: {x: [0, 1], y: [0, 1], z: [0, 1]}\nheightmap: {resolution: -1}\n");
-    FAIL() << "expected std::runtime_error";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("heightmap.resolution"), std::string::npos) << e.what();
-  }
-  EXPECT_THROW(pg_core::WorkspaceConfig::fromFile("/nonexistent/workspace.yaml"), std::runtime_error);
-  ProjectorConfig bad = smallConfig();
-  bad.resolution = 0.0;
-  EXPECT_THROW(HeightmapProjector{bad}, std::invalid_argument);
-}
-
 TEST(HeightmapProjector, OnePointPerCell) {
   HeightmapProjector projector(smallConfig());
   ASSERT_EQ(projector.rows(), 3);
