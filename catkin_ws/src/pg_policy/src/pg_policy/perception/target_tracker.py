@@ -166,13 +166,15 @@ class TargetTracker:
         self.last_mask: np.ndarray | None = None  # where the target was last seen ((H, W) bool)
         self.resolution = 0.0  # m per cell of the heightmaps tracked
         self.last_hm: Heightmap | None = None  # the heightmap last_mask was found in
+        self.last_lab: np.ndarray | None = None  # its Lab image ((H, W, 3) float32)
 
     def start(self, hm: Heightmap, mask: np.ndarray) -> Track:
         """Record the target `mask` ((H, W) bool, non-empty) as seen in `hm`; returns it as a sure Track.
         Raises ValueError for a mask of another shape than the heightmap or without a cell."""
         mask = _check_mask(hm, mask)
-        self.reference = describe(hm, mask)
-        self._found(hm, mask)
+        lab = lab_image(hm.color)
+        self.reference = describe(hm, mask, lab)
+        self._found(hm, mask, lab)
         self.resolution = float(hm.resolution)
         return Track(mask.copy(), 1.0, False, "first view")
 
@@ -214,7 +216,7 @@ class TargetTracker:
         detail = "colour {:.2f} form {:.2f} overlap {:.2f} near {:.2f}".format(*terms)
         if best < FOUND_SCORE:
             return self._refind(hm, labels, lab, f"best segment scores {best:.2f} < {FOUND_SCORE} ({detail})")
-        self._found(hm, mask)
+        self._found(hm, mask, lab)
         runner = scored[1][0] if len(scored) > 1 else 0.0
         if merged:
             return Track(mask, float(best), True,
@@ -253,12 +255,12 @@ class TargetTracker:
         """(still, arrived), (H, W) bool each, against the heightmap the target was last found in: `still` the object
         cells of `hm` whose height and colour stayed within STILL_DEPTH_M and STILL_COLOUR; `arrived` the cells
         that rose by STILL_DEPTH_M or more (something moved in)."""
-        assert self.last_hm is not None
+        assert self.last_hm is not None and self.last_lab is not None
         before = self.last_hm
         both = np.asarray(before.valid, bool) & np.asarray(hm.valid, bool)
         rise = np.asarray(hm.height, np.float32) - np.asarray(before.height, np.float32)
         weights = np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
-        colour = np.linalg.norm((lab - lab_image(before.color)) * weights, axis=-1)
+        colour = np.linalg.norm((lab - self.last_lab) * weights, axis=-1)
         still = both & (np.abs(rise) < STILL_DEPTH_M) & (colour < STILL_COLOUR) & object_cells(hm)
         return still, both & (rise >= STILL_DEPTH_M)
 
@@ -283,14 +285,14 @@ class TargetTracker:
             seen = describe(hm, mask, lab)
             self.reference = Appearance(self.reference.lab, seen.area, seen.height, seen.top, seen.hu1, seen.ratio,
                                         seen.centroid)
-        self._found(hm, mask)
+        self._found(hm, mask, lab)
         left_out = ", a touching object left out" if (segs & ~mask).sum() >= MIN_OBJECT_CELLS else ""
         share = 100 * stay.sum() / max(int(mask.sum()), 1)
         return Track(mask.copy(), 1.0, False, f"in place: {share:.0f} % of its cells unchanged{left_out}")
 
-    def _found(self, hm: Heightmap, mask: np.ndarray) -> None:
-        """Remember `mask` as the target's place, seen in `hm`."""
-        self.last_mask, self.last_hm = mask.copy(), hm
+    def _found(self, hm: Heightmap, mask: np.ndarray, lab: np.ndarray) -> None:
+        """Remember `mask` as the target's place, seen in `hm` (`lab`: its Lab image)."""
+        self.last_mask, self.last_hm, self.last_lab = mask.copy(), hm, lab
 
     def _refind(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, why: str) -> Track:
         """The target looked for anywhere by appearance (module docstring), or an empty track saying `why` not."""
@@ -304,7 +306,7 @@ class TargetTracker:
         if scored and scored[0][0] >= REFIND_SCORE and (len(scored) == 1 or
                                                         scored[0][0] - scored[1][0] >= REFIND_MARGIN):
             score, colour, form, mask = scored[0]
-            self._found(hm, mask)
+            self._found(hm, mask, lab)
             return Track(mask, float(score), True, f"re-found by appearance {score:.2f} (colour {colour:.2f} form "
                          f"{form:.2f}; not found near its place: {why})")
         return Track(np.zeros_like(self.last_mask), 0.0, True, f"not found: {why}")
