@@ -241,3 +241,17 @@ def test_when_the_tracked_object_is_lifted_the_unmoved_look_alike_beside_it_is_t
     tracker.start(first, wrong)
     track = tracker.update(_blocks((100, 130, RED), (20, 200, RED)))
     assert track.mask[105:115, 135:145].all() and not track.mask[20:40, 200:220].any(), track.why
+
+
+def test_a_target_mostly_covered_in_its_first_view_grows_to_all_a_removed_cover_uncovers():
+    first = _blocks((100, 100, RED))
+    first.height[96:124, 104:130] = 0.05  # a higher blue block covers all but a 4-cell strip of the target
+    first.color[96:124, 104:130] = BLUE
+    target = np.zeros((224, 224), bool)
+    target[100:120, 100:104] = True
+    tracker = TargetTracker()
+    tracker.start(first, target)
+    track = tracker.update(_blocks((100, 100, RED)))  # the cover is gone: 5 times the area first seen
+    truth = np.zeros((224, 224), bool)
+    truth[100:120, 100:120] = True
+    assert _iou(track.mask, truth) >= 0.9 and "in place" in track.why and "uncovered" in track.why, track.why

@@ -6,10 +6,11 @@
 compares it with the heightmap the target was last found in: a cell is unchanged when its height stays within
 STILL_DEPTH_M and its colour within STILL_COLOUR. When STAY_FRACTION of the last mask is unchanged, the target did
 not move (the action went elsewhere): it keeps its unchanged cells and takes in the cells of the segments they
-mostly fill that did not rise (something moved in there), and its form (area, heights, shape) becomes the
-reference: a target partly covered in its first view grows to what a removed neighbour uncovers. Where those cells
-hold more than IN_PLACE_RATIO times the reference's area (a look-alike lies against it, in one segment), it keeps
-its unchanged cells alone. This "in place" track is sure.
+mostly fill that did not rise (something moved in there); where those hold more than IN_PLACE_RATIO times the
+reference's area (a look-alike lies against it, in one segment) it keeps its unchanged cells alone. Whatever its
+area, it also takes in the cells of its segments that a removed cover laid bare (lower than before, or unseen
+before), connected to it: a target mostly covered in its first view grows to all a push uncovers. Its form (area,
+heights, shape) then becomes the reference. This "in place" track is sure.
 
 Otherwise the target moved, and every segment, less the unchanged cells that were not the target's (neighbours
 that did not move), is scored against the first view's record; when none is found so, every whole segment is
@@ -194,10 +195,10 @@ class TargetTracker:
         if labels.max() == 0:
             return Track(np.zeros_like(self.last_mask), 0.0, True, "no object in view")
         lab = lab_image(hm.color)
-        still, arrived = self._changes(hm, lab)
+        still, arrived, uncovered = self._changes(hm, lab)
         stay = self.last_mask & still
         if stay.sum() >= STAY_FRACTION * self.last_mask.sum():
-            return self._in_place(hm, labels, lab, stay, arrived)
+            return self._in_place(hm, labels, lab, stay, arrived, uncovered)
         others = still & ~self.last_mask  # cells of other objects that did not move
         cen = describe(hm, self.last_mask, lab).centroid
         gate = (GATE_M + math.hypot(dx, dy)) / self.resolution  # cells
@@ -251,10 +252,11 @@ class TargetTracker:
         scored = sorted(scored, key=lambda s: (s[0], s[1]), reverse=True)
         return [s for k, s in enumerate(scored) if k == 0 or s[1] != scored[0][1]]  # runner-up: another segment
 
-    def _changes(self, hm: Heightmap, lab: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(still, arrived), (H, W) bool each, against the heightmap the target was last found in: `still` the object
-        cells of `hm` whose height and colour stayed within STILL_DEPTH_M and STILL_COLOUR; `arrived` the cells
-        that rose by STILL_DEPTH_M or more (something moved in)."""
+    def _changes(self, hm: Heightmap, lab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(still, arrived, uncovered), (H, W) bool each, against the heightmap the target was last found in: `still`
+        the object cells of `hm` whose height and colour stayed within STILL_DEPTH_M and STILL_COLOUR; `arrived` the
+        cells that rose by STILL_DEPTH_M or more (something moved in); `uncovered` the object cells that fell by as
+        much (what lay on them moved away)."""
         assert self.last_hm is not None and self.last_lab is not None
         before = self.last_hm
         both = np.asarray(before.valid, bool) & np.asarray(hm.valid, bool)
@@ -262,33 +264,39 @@ class TargetTracker:
         weights = np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
         colour = np.linalg.norm((lab - self.last_lab) * weights, axis=-1)
         still = both & (np.abs(rise) < STILL_DEPTH_M) & (colour < STILL_COLOUR) & object_cells(hm)
-        return still, both & (rise >= STILL_DEPTH_M)
+        bare = (both & (rise <= -STILL_DEPTH_M)) | (np.asarray(hm.valid, bool) & ~np.asarray(before.valid, bool))
+        return still, both & (rise >= STILL_DEPTH_M), bare & object_cells(hm)
 
     def _in_place(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, stay: np.ndarray,
-                  arrived: np.ndarray) -> Track:
+                  arrived: np.ndarray, uncovered: np.ndarray) -> Track:
         """The target that did not move (STAY_FRACTION of its last mask unchanged): its unchanged cells `stay` and
         the cells of the segments they mostly fill that did not rise (a rise is something that moved in), while
-        that holds at most IN_PLACE_RATIO times the reference's area, the form of the reference then following it
-        (what a removed neighbour uncovered; the colour stays the first view's); beyond that area (a look-alike
-        lies against it) `stay` alone."""
+        that holds at most IN_PLACE_RATIO times the reference's area (beyond it a look-alike lies against it:
+        `stay` alone); plus, at any area, the `uncovered` cells (lower than before, or unseen before) of the
+        segments `stay` lies in, connected to it: what a removed cover laid bare. When it grew so, the form of the
+        reference follows it (the colour stays the first view's)."""
         assert self.reference is not None
-        segs = np.zeros_like(stay)
+        segs, bared = np.zeros_like(stay), np.zeros_like(stay)
         for label in np.unique(labels[stay]):
             seg = labels == label
+            if label:
+                bared |= seg & uncovered
             if label and 2 * int((seg & stay).sum()) >= min(int(seg.sum()), int(stay.sum())):
                 segs |= seg
         grown = stay | (segs & ~arrived)
         whole = int(grown.sum()) <= IN_PLACE_RATIO * self.reference.area
-        _, parts = cv2.connectedComponents((grown if whole else stay).astype(np.uint8), connectivity=8)
+        _, parts = cv2.connectedComponents(((grown if whole else stay) | bared).astype(np.uint8), connectivity=8)
         mask = np.isin(parts, np.unique(parts[stay]))
-        if whole:
+        if whole or (mask & bared).any():
             seen = describe(hm, mask, lab)
             self.reference = Appearance(self.reference.lab, seen.area, seen.height, seen.top, seen.hu1, seen.ratio,
                                         seen.centroid)
-        self._found(hm, mask, lab)
         left_out = ", a touching object left out" if (segs & ~mask).sum() >= MIN_OBJECT_CELLS else ""
-        share = 100 * stay.sum() / max(int(mask.sum()), 1)
-        return Track(mask.copy(), 1.0, False, f"in place: {share:.0f} % of its cells unchanged{left_out}")
+        taken = int((mask & bared & ~stay).sum())
+        grew = f", {taken} cells uncovered" if taken >= MIN_OBJECT_CELLS else ""
+        share = 100 * stay.sum() / max(int(self.last_mask.sum()), 1)
+        self._found(hm, mask, lab)
+        return Track(mask.copy(), 1.0, False, f"in place: {share:.0f} % of its cells unchanged{grew}{left_out}")
 
     def _found(self, hm: Heightmap, mask: np.ndarray, lab: np.ndarray) -> None:
         """Remember `mask` as the target's place, seen in `hm` (`lab`: its Lab image)."""
