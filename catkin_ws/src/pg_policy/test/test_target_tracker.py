@@ -255,3 +255,22 @@ def test_a_target_mostly_covered_in_its_first_view_grows_to_all_a_removed_cover_
     truth = np.zeros((224, 224), bool)
     truth[100:120, 100:120] = True
     assert _iou(track.mask, truth) >= 0.9 and "in place" in track.why and "uncovered" in track.why, track.why
+
+
+def test_a_target_something_moves_onto_keeps_its_visible_part_and_is_in_place_when_uncovered():
+    first = _blocks((100, 100, RED), (100, 160, RED))  # the target and a look-alike 2 cm away
+    target = np.zeros((224, 224), bool)
+    target[100:120, 100:120] = True
+    tracker = TargetTracker()
+    tracker.start(first, target)
+    half = _blocks((100, 100, RED), (100, 160, RED))
+    half.height[100:120, 110:130], half.color[100:120, 110:130] = 0.05, BLUE  # a blue block lands on its right half
+    track = tracker.update(half)
+    assert track.unsure and "partly covered" in track.why, track.why
+    assert track.mask[100:120, 100:108].all() and not track.mask[:, 110:].any()
+    whole = _blocks((100, 100, RED), (100, 160, RED))
+    whole.height[96:124, 96:124], whole.color[96:124, 96:124] = 0.05, BLUE  # ... and then covers all of it
+    track = tracker.update(whole)
+    assert not track.mask.any() and track.unsure and track.why.startswith("covered"), track.why
+    track = tracker.update(_blocks((100, 100, RED), (100, 160, RED)))  # the cover is gone
+    assert _iou(track.mask, target) >= 0.9 and "in place" in track.why and not track.unsure, track.why

@@ -10,7 +10,10 @@ mostly fill that did not rise (something moved in there); where those hold more 
 reference's area (a look-alike lies against it, in one segment) it keeps its unchanged cells alone. Whatever its
 area, it also takes in the cells of its segments that a removed cover laid bare (lower than before, or unseen
 before), connected to it: a target mostly covered in its first view grows to all a push uncovers. Its form (area,
-heights, shape) then becomes the reference. This "in place" track is sure.
+heights, shape) then becomes the reference. This "in place" track is sure. When no push was predicted to move it
+and its cells are unchanged or lie under another object that moved onto it (they rose and changed colour), it is
+"partly covered": its visible part, unsure; with too little of it in view, "covered": an empty track, the last
+view kept to compare the next with, so that it is in place again once the cover leaves.
 
 Otherwise the target moved, and every segment, less the unchanged cells that were not the target's (neighbours
 that did not move), is scored against the first view's record; when none is found so, every whole segment is
@@ -195,10 +198,13 @@ class TargetTracker:
         if labels.max() == 0:
             return Track(np.zeros_like(self.last_mask), 0.0, True, "no object in view")
         lab = lab_image(hm.color)
-        still, arrived, uncovered = self._changes(hm, lab)
+        still, arrived, uncovered, recoloured = self._changes(hm, lab)
         stay = self.last_mask & still
         if stay.sum() >= STAY_FRACTION * self.last_mask.sum():
             return self._in_place(hm, labels, lab, stay, arrived, uncovered)
+        covered = self.last_mask & arrived & recoloured  # another object on it (the target tilting keeps its colour)
+        if not (dx or dy) and (stay | covered).sum() >= STAY_FRACTION * self.last_mask.sum():
+            return self._covered(hm, lab, stay, covered)
         others = still & ~self.last_mask  # cells of other objects that did not move
         cen = describe(hm, self.last_mask, lab).centroid
         gate = (GATE_M + math.hypot(dx, dy)) / self.resolution  # cells
@@ -252,20 +258,22 @@ class TargetTracker:
         scored = sorted(scored, key=lambda s: (s[0], s[1]), reverse=True)
         return [s for k, s in enumerate(scored) if k == 0 or s[1] != scored[0][1]]  # runner-up: another segment
 
-    def _changes(self, hm: Heightmap, lab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(still, arrived, uncovered), (H, W) bool each, against the heightmap the target was last found in: `still`
-        the object cells of `hm` whose height and colour stayed within STILL_DEPTH_M and STILL_COLOUR; `arrived` the
-        cells that rose by STILL_DEPTH_M or more (something moved in); `uncovered` the object cells that fell by as
-        much (what lay on them moved away)."""
+    def _changes(self, hm: Heightmap, lab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(still, arrived, uncovered, recoloured), (H, W) bool each, against the heightmap the target was last found
+        in: `still` the object cells of `hm` whose height and colour stayed within STILL_DEPTH_M and STILL_COLOUR;
+        `arrived` the cells that rose by STILL_DEPTH_M or more (something moved in); `uncovered` the object cells
+        that fell by as much, or were unseen before (what lay on them moved away); `recoloured` the cells whose
+        colour changed by STILL_COLOUR or more."""
         assert self.last_hm is not None and self.last_lab is not None
         before = self.last_hm
         both = np.asarray(before.valid, bool) & np.asarray(hm.valid, bool)
         rise = np.asarray(hm.height, np.float32) - np.asarray(before.height, np.float32)
         weights = np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
         colour = np.linalg.norm((lab - self.last_lab) * weights, axis=-1)
-        still = both & (np.abs(rise) < STILL_DEPTH_M) & (colour < STILL_COLOUR) & object_cells(hm)
+        recoloured = both & (colour >= STILL_COLOUR)
+        still = both & (np.abs(rise) < STILL_DEPTH_M) & ~recoloured & object_cells(hm)
         bare = (both & (rise <= -STILL_DEPTH_M)) | (np.asarray(hm.valid, bool) & ~np.asarray(before.valid, bool))
-        return still, both & (rise >= STILL_DEPTH_M), bare & object_cells(hm)
+        return still, both & (rise >= STILL_DEPTH_M), bare & object_cells(hm), recoloured
 
     def _in_place(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, stay: np.ndarray,
                   arrived: np.ndarray, uncovered: np.ndarray) -> Track:
@@ -297,6 +305,20 @@ class TargetTracker:
         share = 100 * stay.sum() / max(int(self.last_mask.sum()), 1)
         self._found(hm, mask, lab)
         return Track(mask.copy(), 1.0, False, f"in place: {share:.0f} % of its cells unchanged{grew}{left_out}")
+
+    def _covered(self, hm: Heightmap, lab: np.ndarray, stay: np.ndarray, covered: np.ndarray) -> Track:
+        """The target no push was predicted to move whose cells are unchanged (`stay`) or lie under something that
+        moved onto it (`covered`): its visible part `stay`, unsure; with fewer than MIN_OBJECT_CELLS of it in
+        view, an empty track, and the view it was last found in is kept to compare the next one with (when the
+        cover leaves, the target is "in place" again)."""
+        assert self.last_mask is not None
+        share = 100 * int(covered.sum()) / max(int(self.last_mask.sum()), 1)
+        if stay.sum() < MIN_OBJECT_CELLS:
+            return Track(np.zeros_like(stay), 0.0, True, f"covered: {share:.0f} % of its cells lie under something "
+                         "that moved onto it")
+        self._found(hm, stay, lab)
+        return Track(stay.copy(), 1.0, True, f"partly covered: {share:.0f} % of its cells lie under something that "
+                     "moved onto it")
 
     def _found(self, hm: Heightmap, mask: np.ndarray, lab: np.ndarray) -> None:
         """Remember `mask` as the target's place, seen in `hm` (`lab`: its Lab image)."""
