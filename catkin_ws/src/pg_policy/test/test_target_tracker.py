@@ -274,3 +274,15 @@ def test_a_target_something_moves_onto_keeps_its_visible_part_and_is_in_place_wh
     assert not track.mask.any() and track.unsure and track.why.startswith("covered"), track.why
     track = tracker.update(_blocks((100, 100, RED), (100, 160, RED)))  # the cover is gone
     assert _iou(track.mask, target) >= 0.9 and "in place" in track.why and not track.unsure, track.why
+
+
+def test_after_unsure_tracks_led_to_a_look_alike_that_was_lifted_the_target_is_found_where_it_was_last_sure():
+    first = _blocks((100, 100, RED), (100, 180, RED), (20, 20, RED))
+    target = np.zeros((224, 224), bool)
+    target[100:120, 100:120] = True
+    tracker = TargetTracker()
+    tracker.start(first, target)
+    tracker.last_mask = np.zeros_like(target)  # as unsure tracks leave it: on the look-alike 16 cm away ...
+    tracker.last_mask[100:120, 180:200] = True
+    track = tracker.update(_blocks((100, 100, RED), (20, 20, RED)))  # ... which a grasp then lifted
+    assert _iou(track.mask, target) >= 0.9 and track.unsure and "last sure" in track.why, track.why

@@ -38,7 +38,10 @@ the target), so every segment is also scored against the place the target was la
 better of the two.
 
 The score is the weighted mean (W_COLOUR, W_FORM, W_PLACE); the best segment is the target when its score
-reaches FOUND_SCORE. When no segment is found near the expected place (the target was carried farther than
+reaches FOUND_SCORE. When none does and unsure tracks have led away from where a sure track last saw the target
+(onto a look-alike, which a grasp may then have lifted), segments of its colour (colour term SURE_COLOUR or more)
+are scored against that place, unmoved, and the best reaching FOUND_SCORE is the target, unsure ("where it was
+last sure"). When no segment is found near the expected place (the target was carried farther than
 predicted, or the track followed a neighbour that was then lifted away), the target is looked for anywhere by
 appearance alone: the segment whose mean of colour and form reaches REFIND_SCORE with no other segment within
 REFIND_MARGIN of it is re-found, unsure ("re-found by appearance"); objects alike in colour and form are never
@@ -78,6 +81,7 @@ W_COLOUR, W_FORM, W_PLACE = 0.3, 0.3, 0.4  # weights of the terms (sum 1)
 FOUND_SCORE = 0.45  # a best segment scoring below this is not the target: the target is hidden
 SURE_SCORE = 0.65  # a found target scoring below this is unsure
 MARGIN = 0.08  # a runner-up scoring within this of the best makes the track unsure
+SURE_COLOUR = 0.5  # a target looked for where it was last sure is a segment whose colour term reaches this
 TOP_QUANTILE = 0.9  # the target's "top" height is this quantile of its cells' heights
 GATE_M = 0.12  # a segment's centroid this far (m) beyond the predicted displacement from the predicted one: not it
 MERGE_RATIO = 3.5  # a segment over this many times the reference area that overlaps the prediction is merged (a
@@ -171,6 +175,7 @@ class TargetTracker:
         self.resolution = 0.0  # m per cell of the heightmaps tracked
         self.last_hm: Heightmap | None = None  # the heightmap last_mask was found in
         self.last_lab: np.ndarray | None = None  # its Lab image ((H, W, 3) float32)
+        self.sure_mask: np.ndarray | None = None  # where the target was last seen by a sure track ((H, W) bool)
 
     def start(self, hm: Heightmap, mask: np.ndarray) -> Track:
         """Record the target `mask` ((H, W) bool, non-empty) as seen in `hm`; returns it as a sure Track.
@@ -179,6 +184,7 @@ class TargetTracker:
         lab = lab_image(hm.color)
         self.reference = describe(hm, mask, lab)
         self._found(hm, mask, lab)
+        self.sure_mask = mask.copy()
         self.resolution = float(hm.resolution)
         return Track(mask.copy(), 1.0, False, "first view")
 
@@ -193,6 +199,14 @@ class TargetTracker:
         if np.asarray(hm.height).shape != self.last_mask.shape:
             raise ValueError(f"heightmap {np.asarray(hm.height).shape} differs from the tracked grid "
                              f"{self.last_mask.shape}")
+        track = self._track(hm, shift_xy)
+        if not track.unsure and track.mask.any():
+            self.sure_mask = track.mask.copy()
+        return track
+
+    def _track(self, hm: Heightmap, shift_xy: tuple[float, float] | None) -> Track:
+        """`update` past its checks."""
+        assert self.reference is not None and self.last_mask is not None and self.sure_mask is not None
         dx, dy = shift_xy if shift_xy is not None else (0.0, 0.0)
         labels = segment_objects(hm)
         if labels.max() == 0:
@@ -216,6 +230,14 @@ class TargetTracker:
         scored = self._score(hm, labels, lab, others, places, gate)
         if not scored or scored[0][0] < FOUND_SCORE:  # the last mask was another object, lifted: the target stayed
             scored = self._score(hm, labels, lab, np.zeros_like(others), places, gate)
+        where = ""
+        if (not scored or scored[0][0] < FOUND_SCORE) and not np.array_equal(self.sure_mask, self.last_mask):
+            # unsure tracks since led elsewhere (a look-alike): look where the target was last sure
+            sure = [(self.sure_mask, describe(hm, self.sure_mask, lab).centroid)]
+            again = [s for s in self._score(hm, labels, lab, np.zeros_like(others), sure, GATE_M / self.resolution)
+                     if s[2][0] >= SURE_COLOUR]
+            if again and again[0][0] >= FOUND_SCORE:
+                scored, where = again, "where it was last sure: "
         if not scored:
             return self._refind(hm, labels, lab, f"no object within {GATE_M + math.hypot(dx, dy):.2f} m of where "
                                 "it was expected")
@@ -227,9 +249,10 @@ class TargetTracker:
         runner = scored[1][0] if len(scored) > 1 else 0.0
         if merged:
             return Track(mask, float(best), True,
-                         f"merged with a touching object: cut to the predicted place ({detail})")
-        if best < SURE_SCORE:
-            return Track(mask, float(best), True, f"weak match {best:.2f} < {SURE_SCORE} ({detail})")
+                         f"{where}merged with a touching object: cut to the predicted place ({detail})")
+        if best < SURE_SCORE or where:
+            return Track(mask, float(best), True, f"{where}weak match {best:.2f} < {SURE_SCORE} ({detail})"
+                         if best < SURE_SCORE else f"{where}match {best:.2f} ({detail})")
         if best - runner < MARGIN:
             return Track(mask, float(best), True, f"ambiguous: runner-up scores {runner:.2f} against {best:.2f}")
         return Track(mask, float(best), False, f"match {best:.2f} ({detail})")
