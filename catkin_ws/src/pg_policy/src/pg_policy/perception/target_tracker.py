@@ -58,13 +58,14 @@ RuntimeError for `update` before `start`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
 
 from pg_core.heightmap import Heightmap
 from pg_policy.perception.segmentation import (
+    DEPTH_EDGE_M,
     LIGHTNESS_WEIGHT,
     MIN_OBJECT_CELLS,
     lab_image,
@@ -92,6 +93,8 @@ REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
 STILL_DEPTH_M = 0.003  # a cell is unchanged between two views when its height differs by less than this (m) ...
 STILL_COLOUR = 10.0  # ... and its Lab colour (lightness weighted) by less than this
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
+COVERED_BORDER = 0.25  # a target is partly covered when this fraction of its border stands higher than its top
+UNKNOWN_TERM = 0.5  # the area and shape terms of a segment larger than a partly covered target's record
 IN_PLACE_RATIO = 2.5  # a target in place grows to at most this many times the reference area (half covered: 2)
 
 
@@ -109,7 +112,8 @@ class Track:
 @dataclass(frozen=True, eq=False)
 class Appearance:
     """What a mask shows: median Lab (3,), area (cells), median and top height (m), first Hu moment, minor/major
-    axis ratio in [0, 1] and centroid (row, col) in cells."""
+    axis ratio in [0, 1], centroid (row, col) in cells, and (the tracked target's record only) whether it is
+    partly covered (`partly_covered`)."""
 
     lab: np.ndarray
     area: int
@@ -118,6 +122,7 @@ class Appearance:
     hu1: float
     ratio: float
     centroid: tuple[float, float]
+    partial: bool = False
 
 
 def describe(hm: Heightmap, mask: np.ndarray, lab: np.ndarray | None = None) -> Appearance:
@@ -133,6 +138,17 @@ def describe(hm: Heightmap, mask: np.ndarray, lab: np.ndarray | None = None) -> 
     return Appearance(np.median(lab[cells], axis=0), int(mask.sum()), float(np.median(heights)),
                       float(np.quantile(heights, TOP_QUANTILE)), float(cv2.HuMoments(m)[0, 0]), ratio,
                       (m["m01"] / m["m00"], m["m10"] / m["m00"]))
+
+
+def partly_covered(hm: Heightmap, mask: np.ndarray) -> bool:
+    """Whether another object lies over part of the (H, W) bool `mask`: at least COVERED_BORDER of the valid cells
+    bordering it (within 2 cells) stand DEPTH_EDGE_M or more above its top (TOP_QUANTILE) height."""
+    ring = (cv2.dilate(mask.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0) & ~mask & np.asarray(hm.valid, bool)
+    if not ring.any():
+        return False
+    height = np.asarray(hm.height, np.float64)
+    higher = height[ring] >= np.quantile(height[mask], TOP_QUANTILE) + DEPTH_EDGE_M
+    return bool(higher.mean() >= COVERED_BORDER)
 
 
 def delta_e94(reference: np.ndarray, sample: np.ndarray, k_l: float = 1.0 / LIGHTNESS_WEIGHT) -> float:
@@ -182,7 +198,7 @@ class TargetTracker:
         Raises ValueError for a mask of another shape than the heightmap or without a cell."""
         mask = _check_mask(hm, mask)
         lab = lab_image(hm.color)
-        self.reference = describe(hm, mask, lab)
+        self.reference = replace(describe(hm, mask, lab), partial=partly_covered(hm, mask))
         self._found(hm, mask, lab)
         self.sure_mask = mask.copy()
         self.resolution = float(hm.resolution)
@@ -320,8 +336,7 @@ class TargetTracker:
         mask = np.isin(parts, np.unique(parts[stay]))
         if whole or (mask & bared).any():
             seen = describe(hm, mask, lab)
-            self.reference = Appearance(self.reference.lab, seen.area, seen.height, seen.top, seen.hu1, seen.ratio,
-                                        seen.centroid)
+            self.reference = replace(seen, lab=self.reference.lab, partial=partly_covered(hm, mask))
         left_out = ", a touching object left out" if (segs & ~mask).sum() >= MIN_OBJECT_CELLS else ""
         taken = int((mask & bared & ~stay).sum())
         grew = f", {taken} cells uncovered" if taken >= MIN_OBJECT_CELLS else ""
@@ -369,8 +384,11 @@ class TargetTracker:
         """(colour, form, overlap, nearness) terms in [0, 1] of one segment (see the module docstring)."""
         colour = math.exp(-delta_e94(ref.lab, seen.lab) / COLOUR_SCALE)
         height = math.exp(-(abs(seen.height - ref.height) + abs(seen.top - ref.top)) / 2 / HEIGHT_SCALE_M)
-        area = min(seen.area, ref.area) / max(seen.area, ref.area)
-        shape = math.exp(-abs(seen.hu1 - ref.hu1) / HU1_SCALE - abs(seen.ratio - ref.ratio) / RATIO_SCALE)
+        if ref.partial and seen.area > ref.area:  # more of it may be in view now: its area and shape say nothing
+            area = shape = UNKNOWN_TERM
+        else:
+            area = min(seen.area, ref.area) / max(seen.area, ref.area)
+            shape = math.exp(-abs(seen.hu1 - ref.hu1) / HU1_SCALE - abs(seen.ratio - ref.ratio) / RATIO_SCALE)
         union = int((seg | predicted).sum())
         overlap = int((seg & predicted).sum()) / union if union else 0.0
         dist_m = math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) * self.resolution
