@@ -286,3 +286,31 @@ def test_after_unsure_tracks_led_to_a_look_alike_that_was_lifted_the_target_is_f
     tracker.last_mask[100:120, 180:200] = True
     track = tracker.update(_blocks((100, 100, RED), (20, 20, RED)))  # ... which a grasp then lifted
     assert _iou(track.mask, target) >= 0.9 and track.unsure and "last sure" in track.why, track.why
+
+
+def test_partly_covered_is_a_border_that_stands_higher_than_the_mask():
+    from pg_policy.perception.target_tracker import partly_covered
+
+    first = _blocks((100, 100, RED))
+    first.height[96:124, 104:130] = 0.05  # a higher block over all but a strip of the red one
+    strip = np.zeros((224, 224), bool)
+    strip[100:120, 100:104] = True
+    assert partly_covered(first, strip)
+    alone = np.zeros((224, 224), bool)
+    alone[100:120, 100:120] = True
+    assert not partly_covered(_blocks((100, 100, RED)), alone)
+
+
+def test_a_target_mostly_covered_in_its_first_view_is_found_when_a_push_uncovers_and_moves_it():
+    first = _blocks((100, 100, RED))
+    first.height[96:124, 104:130], first.color[96:124, 104:130] = 0.05, BLUE  # a blue block covers the target
+    target = np.zeros((224, 224), bool)
+    target[100:120, 100:104] = True
+    tracker = TargetTracker()
+    tracker.start(first, target)
+    after = _blocks((100, 115, RED), (155, 100, RED))  # the cover pushed away, the target carried 3 cm, and a
+    after.height[155:175, 104:120] = 0.0  # red 4 x 20 cell strip (the form first seen) pushed in 11 cm away
+    track = tracker.update(after, (0.0, 0.0))
+    truth = np.zeros((224, 224), bool)
+    truth[100:120, 115:135] = True
+    assert _iou(track.mask, truth) >= 0.9, track.why
