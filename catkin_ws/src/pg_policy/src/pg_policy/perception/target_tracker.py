@@ -1,7 +1,8 @@
 """Keeping a target named by a mask on the same object from one heightmap to the next, without a colour palette.
 
-`TargetTracker.start(hm, mask)` records the target's appearance in its first view: median CIE Lab colour, area
-(cells), median and top height (m) and shape (first Hu moment, axis ratio), and its place (the mask).
+`TargetTracker.start(hm, mask)` records the target's appearance in its first view
+(pg_policy.perception.target_appearance: median CIE Lab colour, area, heights, shape, whether it is partly covered)
+and its place (the mask).
 `update(hm, shift_xy)` segments each new heightmap (pg_policy.perception.segmentation.segment_objects) and first
 compares it with the heightmap the target was last found in: a cell is unchanged when its height stays within
 STILL_DEPTH_M and its colour within STILL_COLOUR. When STAY_FRACTION of the last mask is unchanged, the target did
@@ -9,11 +10,13 @@ not move (the action went elsewhere): it keeps its unchanged cells and takes in 
 mostly fill that did not rise (something moved in there); where those hold more than IN_PLACE_RATIO times the
 reference's area (a look-alike lies against it, in one segment) it keeps its unchanged cells alone. Whatever its
 area, it also takes in the cells of its segments that a removed cover laid bare (lower than before, or unseen
-before), connected to it: a target mostly covered in its first view grows to all a push uncovers. Its form (area,
-heights, shape) then becomes the reference. This "in place" track is sure. When no push was predicted to move it
-and its cells are unchanged or lie under another object that moved onto it (they rose and changed colour), it is
-"partly covered": its visible part, unsure; with too little of it in view, "covered": an empty track, the last
-view kept to compare the next with, so that it is in place again once the cover leaves.
+before) and of its colour (within COLOUR_EDGE of the first view's), connected to it: a target mostly covered in its
+first view grows to all a push uncovers. Its form (area, heights, shape) then becomes the reference. When no push
+was predicted to move it and its cells are unchanged or lie under another object that moved onto it (they rose and
+changed colour), it is "partly covered": its visible part; with too little of it in view, "covered": an empty,
+unsure track, the last view kept to compare the next with, so that it is in place again once the cover leaves. An
+"in place" or "partly covered" track is as sure as the last track that found the target: it says the object did not
+move, not that it is the target.
 
 Otherwise the target moved, and every segment, less the unchanged cells that were not the target's (neighbours
 that did not move), is scored against the first view's record; when none is found so, every whole segment is
@@ -24,10 +27,11 @@ that did not move), is scored against the first view's record; when none is foun
   weighs most for saturated colours;
 - form: the mean of the height term exp(-dh / HEIGHT_SCALE_M) (dh: the mean absolute difference of the median and
   the top height), the area ratio min/max, and the shape term exp(-|d hu1| / HU1_SCALE - |d ratio| / RATIO_SCALE)
-  (first Hu moment and minor/major axis ratio: invariant to rotation and translation);
+  (first Hu moment and minor/major axis ratio: invariant to rotation and translation); when the record is partly
+  covered (more of the target may come into view), a larger segment's area and shape terms are UNKNOWN_TERM;
 - place: the larger of the overlap, IoU of the segment with the last mask moved by `shift_xy` (the displacement a
   push predicts), and the nearness exp(-d / DISTANCE_SCALE_M), d the distance between the segment's centroid and
-  the predicted one.
+  the predicted one. A segment whose colour term stays under COLOUR_FLOOR is never the target.
 
 Two guards keep a track from jumping. A segment whose centroid lies farther than GATE_M plus the predicted
 displacement from the predicted centroid is not the target (a push carries an object push_length at most; a failed
@@ -37,17 +41,17 @@ CROP_CELLS of the predicted mask, and the track is unsure. A predicted displacem
 the target), so every segment is also scored against the place the target was last seen, unmoved, and keeps the
 better of the two.
 
-The score is the weighted mean (W_COLOUR, W_FORM, W_PLACE); the best segment is the target when its score
-reaches FOUND_SCORE. When none does and unsure tracks have led away from where a sure track last saw the target
-(onto a look-alike, which a grasp may then have lifted), segments of its colour (colour term SURE_COLOUR or more)
-are scored against that place, unmoved, and the best reaching FOUND_SCORE is the target, unsure ("where it was
-last sure"). When no segment is found near the expected place (the target was carried farther than
-predicted, or the track followed a neighbour that was then lifted away), the target is looked for anywhere by
-appearance alone: the segment whose mean of colour and form reaches REFIND_SCORE with no other segment within
-REFIND_MARGIN of it is re-found, unsure ("re-found by appearance"); objects alike in colour and form are never
-re-found this way. A found track is unsure when its score stays under SURE_SCORE or the runner-up comes within
-MARGIN of it. Objects of one colour are told apart by form and place alone. The appearance stays that of the
-first view; the place follows every found track. A target not found leaves the place where it was last seen.
+The score is the weighted mean (W_COLOUR, W_FORM, W_PLACE); the best segment is the target when its score reaches
+FOUND_SCORE. When none does and unsure tracks have led away from where a sure track last saw the target (onto a
+look-alike, which a grasp may then have lifted), the segments are scored against that place, unmoved, and the best
+reaching FOUND_SCORE is the target, unsure ("where it was last sure"). When no segment is found near the expected
+place (the target was carried farther than predicted, or the track followed a neighbour that was then lifted away),
+the target is looked for anywhere by appearance alone: the segment whose mean of colour and form reaches
+REFIND_SCORE with no other segment within REFIND_MARGIN of it is re-found, unsure ("re-found by appearance");
+objects alike in colour and form are never re-found this way. A found track is unsure when its score stays under
+SURE_SCORE or the runner-up comes within MARGIN of it. Objects of one colour are told apart by form and place alone.
+The appearance stays that of the first view; the place follows every found track. A target not found leaves the
+place where it was last seen.
 
 Frames and units: masks are (H, W) bool over the heightmap cells (pg_core.heightmap: rows along y, columns along x);
 `shift_xy` is (dx, dy) metres in `world`; heights and distances in metres. Deterministic: the same heightmaps give
@@ -65,13 +69,14 @@ import numpy as np
 
 from pg_core.heightmap import Heightmap
 from pg_policy.perception.segmentation import (
-    DEPTH_EDGE_M,
+    COLOUR_EDGE,
     LIGHTNESS_WEIGHT,
     MIN_OBJECT_CELLS,
     lab_image,
     object_cells,
     segment_objects,
 )
+from pg_policy.perception.target_appearance import Appearance, delta_e94, describe, partly_covered, shifted
 
 COLOUR_SCALE = 12.0  # CIE94 difference (lightness weighted) at which the colour term falls to 1/e
 HEIGHT_SCALE_M = 0.01  # median height difference (m) at which the height term falls to 1/e
@@ -82,8 +87,8 @@ W_COLOUR, W_FORM, W_PLACE = 0.3, 0.3, 0.4  # weights of the terms (sum 1)
 FOUND_SCORE = 0.45  # a best segment scoring below this is not the target: the target is hidden
 SURE_SCORE = 0.65  # a found target scoring below this is unsure
 MARGIN = 0.08  # a runner-up scoring within this of the best makes the track unsure
-SURE_COLOUR = 0.5  # a target looked for where it was last sure is a segment whose colour term reaches this
-TOP_QUANTILE = 0.9  # the target's "top" height is this quantile of its cells' heights
+COLOUR_FLOOR = 0.4  # a segment whose colour term stays under this is not the target (measured on training
+# sequences: the target's own term stays above 0.54, shading and tilt included)
 GATE_M = 0.12  # a segment's centroid this far (m) beyond the predicted displacement from the predicted one: not it
 MERGE_RATIO = 3.5  # a segment over this many times the reference area that overlaps the prediction is merged (a
 # target partly covered in its first view grows as a push uncovers it: at 1.8 most "merges" were such targets)
@@ -93,7 +98,6 @@ REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
 STILL_DEPTH_M = 0.003  # a cell is unchanged between two views when its height differs by less than this (m) ...
 STILL_COLOUR = 10.0  # ... and its Lab colour (lightness weighted) by less than this
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
-COVERED_BORDER = 0.25  # a target is partly covered when this fraction of its border stands higher than its top
 UNKNOWN_TERM = 0.5  # the area and shape terms of a segment larger than a partly covered target's record
 IN_PLACE_RATIO = 2.5  # a target in place grows to at most this many times the reference area (half covered: 2)
 
@@ -107,69 +111,6 @@ class Track:
     confidence: float
     unsure: bool
     why: str
-
-
-@dataclass(frozen=True, eq=False)
-class Appearance:
-    """What a mask shows: median Lab (3,), area (cells), median and top height (m), first Hu moment, minor/major
-    axis ratio in [0, 1], centroid (row, col) in cells, and (the tracked target's record only) whether it is
-    partly covered (`partly_covered`)."""
-
-    lab: np.ndarray
-    area: int
-    height: float
-    top: float
-    hu1: float
-    ratio: float
-    centroid: tuple[float, float]
-    partial: bool = False
-
-
-def describe(hm: Heightmap, mask: np.ndarray, lab: np.ndarray | None = None) -> Appearance:
-    """The Appearance of the (non-empty, (H, W) bool) `mask` in `hm`; `lab`: hm's Lab image when already made."""
-    lab = lab_image(hm.color) if lab is None else lab
-    cells = mask & np.asarray(hm.valid, dtype=bool)
-    cells = cells if cells.any() else mask
-    heights = np.asarray(hm.height, dtype=np.float64)[cells]
-    m = cv2.moments(mask.astype(np.uint8), binaryImage=True)
-    cov = np.array([[m["mu20"], m["mu11"]], [m["mu11"], m["mu02"]]]) / m["m00"]
-    low, high = np.linalg.eigvalsh(cov)  # variances along the minor and major axes (cells^2)
-    ratio = math.sqrt(max(low, 0.0) / high) if high > 0 else 1.0
-    return Appearance(np.median(lab[cells], axis=0), int(mask.sum()), float(np.median(heights)),
-                      float(np.quantile(heights, TOP_QUANTILE)), float(cv2.HuMoments(m)[0, 0]), ratio,
-                      (m["m01"] / m["m00"], m["m10"] / m["m00"]))
-
-
-def partly_covered(hm: Heightmap, mask: np.ndarray) -> bool:
-    """Whether another object lies over part of the (H, W) bool `mask`: at least COVERED_BORDER of the valid cells
-    bordering it (within 2 cells) stand DEPTH_EDGE_M or more above its top (TOP_QUANTILE) height."""
-    ring = (cv2.dilate(mask.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0) & ~mask & np.asarray(hm.valid, bool)
-    if not ring.any():
-        return False
-    height = np.asarray(hm.height, np.float64)
-    higher = height[ring] >= np.quantile(height[mask], TOP_QUANTILE) + DEPTH_EDGE_M
-    return bool(higher.mean() >= COVERED_BORDER)
-
-
-def delta_e94(reference: np.ndarray, sample: np.ndarray, k_l: float = 1.0 / LIGHTNESS_WEIGHT) -> float:
-    """CIE94 colour difference (graphic-arts weights) of two Lab colours (3,), `reference` the first view's:
-    sqrt((dL / k_l)^2 + (dC / (1 + 0.045 C_ref))^2 + (dH / (1 + 0.015 C_ref))^2), C chroma, dH the hue difference
-    as an arc. Written out (five lines) because neither OpenCV nor the project's other dependencies provide it."""
-    (l1, a1, b1), (l2, a2, b2) = (float(v) for v in reference), (float(v) for v in sample)
-    c1, c2 = math.hypot(a1, b1), math.hypot(a2, b2)
-    dh2 = max((a1 - a2) ** 2 + (b1 - b2) ** 2 - (c1 - c2) ** 2, 0.0)
-    return math.sqrt(((l1 - l2) / k_l) ** 2 + ((c1 - c2) / (1.0 + 0.045 * c1)) ** 2 + dh2 / (1.0 + 0.015 * c1) ** 2)
-
-
-def shifted(mask: np.ndarray, rows: int, cols: int) -> np.ndarray:
-    """(H, W) bool: `mask` moved by whole cells (rows down, cols right); cells moved off the grid are dropped."""
-    out = np.zeros_like(mask)
-    h, w = mask.shape
-    if abs(rows) >= h or abs(cols) >= w:
-        return out
-    src = mask[max(-rows, 0) : h - max(rows, 0), max(-cols, 0) : w - max(cols, 0)]
-    out[max(rows, 0) : h - max(-rows, 0), max(cols, 0) : w - max(-cols, 0)] = src
-    return out
 
 
 def _check_mask(hm: Heightmap, mask: np.ndarray) -> np.ndarray:
@@ -192,6 +133,7 @@ class TargetTracker:
         self.last_hm: Heightmap | None = None  # the heightmap last_mask was found in
         self.last_lab: np.ndarray | None = None  # its Lab image ((H, W, 3) float32)
         self.sure_mask: np.ndarray | None = None  # where the target was last seen by a sure track ((H, W) bool)
+        self.unsure = False  # whether the latest track that found the target was unsure
 
     def start(self, hm: Heightmap, mask: np.ndarray) -> Track:
         """Record the target `mask` ((H, W) bool, non-empty) as seen in `hm`; returns it as a sure Track.
@@ -200,7 +142,7 @@ class TargetTracker:
         lab = lab_image(hm.color)
         self.reference = replace(describe(hm, mask, lab), partial=partly_covered(hm, mask))
         self._found(hm, mask, lab)
-        self.sure_mask = mask.copy()
+        self.sure_mask, self.unsure = mask.copy(), False
         self.resolution = float(hm.resolution)
         return Track(mask.copy(), 1.0, False, "first view")
 
@@ -218,6 +160,8 @@ class TargetTracker:
         track = self._track(hm, shift_xy)
         if not track.unsure and track.mask.any():
             self.sure_mask = track.mask.copy()
+        if track.mask.any():
+            self.unsure = track.unsure
         return track
 
     def _track(self, hm: Heightmap, shift_xy: tuple[float, float] | None) -> Track:
@@ -250,8 +194,7 @@ class TargetTracker:
         if (not scored or scored[0][0] < FOUND_SCORE) and not np.array_equal(self.sure_mask, self.last_mask):
             # unsure tracks since led elsewhere (a look-alike): look where the target was last sure
             sure = [(self.sure_mask, describe(hm, self.sure_mask, lab).centroid)]
-            again = [s for s in self._score(hm, labels, lab, np.zeros_like(others), sure, GATE_M / self.resolution)
-                     if s[2][0] >= SURE_COLOUR]
+            again = self._score(hm, labels, lab, np.zeros_like(others), sure, GATE_M / self.resolution)
             if again and again[0][0] >= FOUND_SCORE:
                 scored, where = again, "where it was last sure: "
         if not scored:
@@ -292,6 +235,8 @@ class TargetTracker:
                 if math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) > gate:
                     continue
                 terms = self._terms(seen, seg, predicted, expected, ref)
+                if terms[0] < COLOUR_FLOOR:
+                    continue
                 score = W_COLOUR * terms[0] + W_FORM * terms[1] + W_PLACE * max(terms[2], terms[3])
                 scored.append((score, -label, terms, seg, merged))
         scored = sorted(scored, key=lambda s: (s[0], s[1]), reverse=True)
@@ -324,10 +269,12 @@ class TargetTracker:
         reference follows it (the colour stays the first view's)."""
         assert self.reference is not None
         segs, bared = np.zeros_like(stay), np.zeros_like(stay)
+        weights = np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
+        alike = np.linalg.norm((lab - self.reference.lab.astype(np.float32)) * weights, axis=-1) < COLOUR_EDGE
         for label in np.unique(labels[stay]):
             seg = labels == label
             if label:
-                bared |= seg & uncovered
+                bared |= seg & uncovered & alike
             if label and 2 * int((seg & stay).sum()) >= min(int(seg.sum()), int(stay.sum())):
                 segs |= seg
         grown = stay | (segs & ~arrived)
@@ -342,21 +289,21 @@ class TargetTracker:
         grew = f", {taken} cells uncovered" if taken >= MIN_OBJECT_CELLS else ""
         share = 100 * stay.sum() / max(int(self.last_mask.sum()), 1)
         self._found(hm, mask, lab)
-        return Track(mask.copy(), 1.0, False, f"in place: {share:.0f} % of its cells unchanged{grew}{left_out}")
+        return Track(mask.copy(), 1.0, self.unsure, f"in place: {share:.0f} % of its cells unchanged{grew}{left_out}")
 
     def _covered(self, hm: Heightmap, lab: np.ndarray, stay: np.ndarray, covered: np.ndarray) -> Track:
         """The target no push was predicted to move whose cells are unchanged (`stay`) or lie under something that
-        moved onto it (`covered`): its visible part `stay`, unsure; with fewer than MIN_OBJECT_CELLS of it in
-        view, an empty track, and the view it was last found in is kept to compare the next one with (when the
-        cover leaves, the target is "in place" again)."""
+        moved onto it (`covered`): its visible part `stay`, as sure as the track before; with fewer than
+        MIN_OBJECT_CELLS of it in view, an empty track, and the view it was last found in is kept to compare the
+        next one with (when the cover leaves, the target is "in place" again)."""
         assert self.last_mask is not None
         share = 100 * int(covered.sum()) / max(int(self.last_mask.sum()), 1)
         if stay.sum() < MIN_OBJECT_CELLS:
             return Track(np.zeros_like(stay), 0.0, True, f"covered: {share:.0f} % of its cells lie under something "
                          "that moved onto it")
         self._found(hm, stay, lab)
-        return Track(stay.copy(), 1.0, True, f"partly covered: {share:.0f} % of its cells lie under something that "
-                     "moved onto it")
+        return Track(stay.copy(), 1.0, self.unsure, f"partly covered: {share:.0f} % of its cells lie under "
+                     "something that moved onto it")
 
     def _found(self, hm: Heightmap, mask: np.ndarray, lab: np.ndarray) -> None:
         """Remember `mask` as the target's place, seen in `hm` (`lab`: its Lab image)."""

@@ -1,0 +1,85 @@
+"""What a target looks like in one heightmap, for pg_policy.perception.target_tracker: its Appearance (colour,
+area, heights, shape, place, whether another object covers part of it), the CIE94 colour difference that compares
+two appearances, and masks moved by whole cells.
+
+Frames and units: masks are (H, W) bool over the heightmap cells (pg_core.heightmap: rows along y, columns along x);
+heights in metres above the table, areas in cells, centroids (row, col) in cells; Lab colours as
+pg_policy.perception.segmentation.lab_image makes them. `describe` needs a non-empty mask.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from pg_core.heightmap import Heightmap
+from pg_policy.perception.segmentation import DEPTH_EDGE_M, LIGHTNESS_WEIGHT, lab_image
+
+TOP_QUANTILE = 0.9  # the target's "top" height is this quantile of its cells' heights
+COVERED_BORDER = 0.25  # a target is partly covered when this fraction of its border stands higher than its top
+
+
+@dataclass(frozen=True, eq=False)
+class Appearance:
+    """What a mask shows: median Lab (3,), area (cells), median and top height (m), first Hu moment, minor/major
+    axis ratio in [0, 1], centroid (row, col) in cells, and (the tracked target's record only) whether it is
+    partly covered (`partly_covered`)."""
+
+    lab: np.ndarray
+    area: int
+    height: float
+    top: float
+    hu1: float
+    ratio: float
+    centroid: tuple[float, float]
+    partial: bool = False
+
+
+def describe(hm: Heightmap, mask: np.ndarray, lab: np.ndarray | None = None) -> Appearance:
+    """The Appearance of the (non-empty, (H, W) bool) `mask` in `hm`; `lab`: hm's Lab image when already made."""
+    lab = lab_image(hm.color) if lab is None else lab
+    cells = mask & np.asarray(hm.valid, dtype=bool)
+    cells = cells if cells.any() else mask
+    heights = np.asarray(hm.height, dtype=np.float64)[cells]
+    m = cv2.moments(mask.astype(np.uint8), binaryImage=True)
+    cov = np.array([[m["mu20"], m["mu11"]], [m["mu11"], m["mu02"]]]) / m["m00"]
+    low, high = np.linalg.eigvalsh(cov)  # variances along the minor and major axes (cells^2)
+    ratio = math.sqrt(max(low, 0.0) / high) if high > 0 else 1.0
+    return Appearance(np.median(lab[cells], axis=0), int(mask.sum()), float(np.median(heights)),
+                      float(np.quantile(heights, TOP_QUANTILE)), float(cv2.HuMoments(m)[0, 0]), ratio,
+                      (m["m01"] / m["m00"], m["m10"] / m["m00"]))
+
+
+def partly_covered(hm: Heightmap, mask: np.ndarray) -> bool:
+    """Whether another object lies over part of the (H, W) bool `mask`: at least COVERED_BORDER of the valid cells
+    bordering it (within 2 cells) stand DEPTH_EDGE_M or more above its top (TOP_QUANTILE) height."""
+    ring = (cv2.dilate(mask.astype(np.uint8), np.ones((5, 5), np.uint8)) > 0) & ~mask & np.asarray(hm.valid, bool)
+    if not ring.any():
+        return False
+    height = np.asarray(hm.height, np.float64)
+    higher = height[ring] >= np.quantile(height[mask], TOP_QUANTILE) + DEPTH_EDGE_M
+    return bool(higher.mean() >= COVERED_BORDER)
+
+
+def delta_e94(reference: np.ndarray, sample: np.ndarray, k_l: float = 1.0 / LIGHTNESS_WEIGHT) -> float:
+    """CIE94 colour difference (graphic-arts weights) of two Lab colours (3,), `reference` the first view's:
+    sqrt((dL / k_l)^2 + (dC / (1 + 0.045 C_ref))^2 + (dH / (1 + 0.015 C_ref))^2), C chroma, dH the hue difference
+    as an arc. Written out (five lines) because neither OpenCV nor the project's other dependencies provide it."""
+    (l1, a1, b1), (l2, a2, b2) = (float(v) for v in reference), (float(v) for v in sample)
+    c1, c2 = math.hypot(a1, b1), math.hypot(a2, b2)
+    dh2 = max((a1 - a2) ** 2 + (b1 - b2) ** 2 - (c1 - c2) ** 2, 0.0)
+    return math.sqrt(((l1 - l2) / k_l) ** 2 + ((c1 - c2) / (1.0 + 0.045 * c1)) ** 2 + dh2 / (1.0 + 0.015 * c1) ** 2)
+
+
+def shifted(mask: np.ndarray, rows: int, cols: int) -> np.ndarray:
+    """(H, W) bool: `mask` moved by whole cells (rows down, cols right); cells moved off the grid are dropped."""
+    out = np.zeros_like(mask)
+    h, w = mask.shape
+    if abs(rows) >= h or abs(cols) >= w:
+        return out
+    src = mask[max(-rows, 0) : h - max(rows, 0), max(-cols, 0) : w - max(cols, 0)]
+    out[max(rows, 0) : h - max(-rows, 0), max(cols, 0) : w - max(-cols, 0)] = src
+    return out
