@@ -61,6 +61,12 @@ def test_centre_point_lies_on_the_mask_and_iou():
     pt = centre_point(hm, square)
     row, col = world_to_pixel(pt.x, pt.y, hm.bounds, hm.resolution)
     assert square[row, col] and hm.height[row, col] == pytest.approx(0.02)
+    pieces = np.zeros((50, 50), bool)
+    pieces[20:26, 5:20], pieces[20:26, 30:40] = True, True  # a bar seen on both sides of an object across it
+    hm.height[:] = 0.02
+    pt = centre_point(hm, pieces)
+    row, col = world_to_pixel(pt.x, pt.y, hm.bounds, hm.resolution)
+    assert pieces[row - 2 : row + 3, col - 2 : col + 3].all() and col < 20  # inside the larger piece, not its rim
     half = np.roll(square, 5, axis=1)  # overlaps half of it
     assert iou(square, square) == 1.0 and iou(square, half) == pytest.approx(50 / 150)
     assert iou(np.zeros_like(square), np.zeros_like(square)) is None

@@ -4,9 +4,9 @@
 - ``colour``: the target's palette colour, as a colour request names it; each mask is
   pg_core.target_mask.target_mask of the colour (the runner's own path, unchanged);
 - ``point``: a pg_policy.target_loop.target_spec.PointTarget at the centre of the simulator's ground-truth target
-  mask of the first view: its centroid, or, when the centroid cell is not the target's (a hollow or occluded
-  shape) or is too thin to hold an object (a 4 mm flat part), the target cell nearest to it that does, so the
-  point lies on the target where a user would click;
+  mask of the first view: its centroid, or, when the centroid cell is not well inside the target (a hollow shape,
+  a target seen in two pieces on both sides of an object lying across it, a 4 mm flat part), the innermost cell
+  of the target, so the point lies where a user would click;
 - ``mask``: a MaskTarget of that ground-truth mask of the first view.
 After the first view the trial's TargetFollower tracks the target: no later ground truth reaches the policy.
 
@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+import cv2
 import numpy as np
 
 from pg_core.heightmap import Heightmap, pixel_to_world
@@ -33,6 +34,7 @@ from pg_policy.target_loop.target_spec import MaskTarget, PointTarget, TargetFol
 from pg_sim.world.recolour import UNIQUE
 
 COLOUR, POINT, MASK = "colour", "point", "mask"
+CLICK_MARGIN_CELLS = 2.0  # a point lies this far (cells) inside the target's border, or as far as its width allows
 TARGET_BY = (COLOUR, POINT, MASK)
 
 
@@ -53,16 +55,19 @@ def iou(a: np.ndarray, b: np.ndarray) -> float | None:
 
 
 def centre_point(hm: Heightmap, truth: np.ndarray) -> PointTarget:
-    """The PointTarget at the centre of the non-empty (H, W) bool mask `truth` (module docstring: ``point``); the
-    nearest cell of `truth` that holds an object (segmentation.object_cells: a thin part 4 mm high or less is no
-    place to click) when the centre's cell does not, any cell of `truth` when none does."""
+    """The PointTarget at the centre of the non-empty (H, W) bool mask `truth` (module docstring: ``point``): its
+    centroid when that cell holds an object of `truth` (segmentation.object_cells: a thin part 4 mm high or less is
+    no place to click) CLICK_MARGIN_CELLS or more inside its border, else the innermost such cell (farthest from
+    the border; of those, the nearest to the centroid): the middle of the target's largest visible piece, not the
+    rim of a piece beside the object that hides its middle. Any cell of `truth` counts when none holds an object."""
     rows, cols = np.nonzero(truth)
     r, c = float(rows.mean()), float(cols.mean())
     cell = (int(math.floor(r)), int(math.floor(c)))
     on = truth & object_cells(hm)
     on = on if on.any() else truth
-    if not on[cell]:
-        rows, cols = np.nonzero(on)
+    inside = cv2.distanceTransform(np.pad(on, 1).astype(np.uint8), cv2.DIST_L2, 3)[1:-1, 1:-1]
+    if inside[cell] < min(CLICK_MARGIN_CELLS, float(inside.max())):
+        rows, cols = np.nonzero(inside >= inside.max() - 1e-6)
         k = int(np.argmin((rows - r) ** 2 + (cols - c) ** 2))
         r, c = float(rows[k]), float(cols[k])
     x, y = pixel_to_world(r, c, hm.bounds, hm.resolution)
