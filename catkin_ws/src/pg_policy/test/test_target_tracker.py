@@ -198,16 +198,6 @@ def test_a_target_carried_beyond_reach_is_re_found_by_appearance_unless_another_
     assert not track.mask.any() and "not found" in track.why
 
 
-def test_delta_e94_is_cie94_and_weighs_hue_over_shading():
-    from pg_policy.perception.target_appearance import delta_e94
-
-    # Sharma, Wu and Dalal's first test pair, CIE94 graphic arts: 1.3950
-    assert delta_e94(np.array([50, 2.6772, -79.7751]), np.array([50, 0, -82.7485]), k_l=1.0) == pytest.approx(
-        1.3950, abs=1e-4)
-    red, shaded, orange = np.array([47.3, 51.7, 28.8]), np.array([61.0, 62.6, 34.8]), np.array([60.0, 40.0, 60.0])
-    assert delta_e94(red, shaded) < 0.5 * delta_e94(red, orange)  # a tilted red face is nearer red than orange
-
-
 def test_a_target_that_did_not_move_keeps_its_cells_when_a_look_alike_is_pushed_against_it():
     tracker = TargetTracker()
     first = _blocks((100, 100, RED), (100, 160, RED))
@@ -286,19 +276,6 @@ def test_after_unsure_tracks_led_to_a_look_alike_that_was_lifted_the_target_is_f
     tracker.last_mask[100:120, 180:200] = True
     track = tracker.update(_blocks((100, 100, RED), (20, 20, RED)))  # ... which a grasp then lifted
     assert _iou(track.mask, target) >= 0.9 and track.unsure and "last sure" in track.why, track.why
-
-
-def test_partly_covered_is_a_border_that_stands_higher_than_the_mask():
-    from pg_policy.perception.target_appearance import partly_covered
-
-    first = _blocks((100, 100, RED))
-    first.height[96:124, 104:130] = 0.05  # a higher block over all but a strip of the red one
-    strip = np.zeros((224, 224), bool)
-    strip[100:120, 100:104] = True
-    assert partly_covered(first, strip)
-    alone = np.zeros((224, 224), bool)
-    alone[100:120, 100:120] = True
-    assert not partly_covered(_blocks((100, 100, RED)), alone)
 
 
 def test_a_target_mostly_covered_in_its_first_view_is_found_when_a_push_uncovers_and_moves_it():
