@@ -139,17 +139,3 @@ def test_a_vessels_floor_belongs_to_the_vessel_and_what_lies_in_it_stays_apart()
     assert block.sum() >= 64 and not (block & bowl).any()
     with pytest.raises(ValueError, match="bare table"):
         segment_at(hm, 5, 5)
-
-
-def test_two_faces_of_one_object_meeting_at_a_ridge_are_one_object():
-    """A ridge seen from above: one face rises 2.5 mm per 2 mm cell for 12 cells, the other falls 3.7 mm per cell
-    for 8. The ridge bends by 6.2 mm (a depth edge between two faces), but both faces stand within 3 mm of each
-    other along it: one object. Two blocks of one colour 15 mm apart in height stay two (the test above)."""
-    profile = np.r_[np.arange(1, 13) * 0.0025, 0.030 - np.arange(1, 9) * 0.0037].astype(np.float32)
-    height = np.zeros((224, 224), np.float32)
-    height[100:130, 90 : 90 + profile.size] = profile
-    color = np.full((224, 224, 3), 200, np.uint8)
-    color[100:130, 90 : 90 + profile.size] = (90, 140, 160)
-    labels = segment_objects(Heightmap(color, height, np.ones((224, 224), bool), GEO.heightmap.resolution,
-                                       GEO.workspace.bounds))
-    assert labels.max() == 1 and (labels[100:130, 92 : 88 + profile.size] == 1).mean() >= 0.95

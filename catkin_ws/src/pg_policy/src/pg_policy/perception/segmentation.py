@@ -19,11 +19,8 @@ Method (OpenCV and scipy.ndimage):
    colour stay apart, while one object of uniform height and colour is one seed and one label;
 4. object cells the table basin reaches first (rims, pieces too thin for a seed) join the nearest label when they
    touch one, else form a label of their own;
-5. cells a single label encloses (a bowl's or cup's floor, lower than SEGMENT_HEIGHT_M or unseen) join it;
-6. touching labels of one colour (within JOIN_COLOUR) with a long contact (JOIN_CONTACT) whose cells along it
-   stand within JOIN_STEP_M of each other are one object: two faces meeting at a crease (a tilted block's top and
-   side, the parts of one moulded object), where a depth edge split them; a step of JOIN_STEP_M or more between
-   touching objects of one colour keeps them apart. Labels under MIN_OBJECT_CELLS cells are dropped to 0.
+5. cells a single label encloses (a bowl's or cup's floor, lower than SEGMENT_HEIGHT_M or unseen) join it; labels
+   under MIN_OBJECT_CELLS cells are dropped to 0.
 
 A click on a part that no seed of its own holds (a sliver of an object mostly under a neighbour: fewer seed cells
 than MIN_SEED_CELLS) lands in the neighbour's label. `segment_at` therefore looks at the clicked cell's own piece:
@@ -43,8 +40,6 @@ the grid, invalid, on bare table, or on a sliver that belongs to no object.
 
 from __future__ import annotations
 
-import math
-
 import cv2
 import numpy as np
 from scipy import ndimage
@@ -59,9 +54,6 @@ MIN_SEED_CELLS = 12  # seed components smaller than this (cells; 0.5 cm^2 at 2 m
 MIN_OBJECT_CELLS = 20  # labels smaller than this (cells) are speckle and dropped to 0
 SNAP_RADIUS_CELLS = 2  # `segment_at` on an unlabelled object cell takes the object within this many cells
 SEGMENT_HEIGHT_M = 0.004  # cells higher than this (m above the table) hold an object; 8 mm left flat utensils out
-JOIN_COLOUR = 8.0  # touching labels whose median chroma (and weighted lightness) differ by less than this ...
-JOIN_CONTACT = 1.0  # ... that touch along at least this times the square root of the smaller one's area (cells) ...
-JOIN_STEP_M = 0.003  # ... and stand within this (m) of each other along the contact are parts of one object
 EDGE_LEVELS = 255  # edge strengths are quantised to 0..EDGE_LEVELS for the watershed (uint8)
 
 
@@ -163,57 +155,7 @@ def segment_objects(hm: Heightmap) -> np.ndarray:
     levels = np.clip(strength * (EDGE_LEVELS / 4.0), 0, EDGE_LEVELS).astype(np.uint8)  # 4 x threshold saturates
     flooded = ndimage.watershed_ift(levels, markers, structure=np.ones((3, 3), bool)).astype(np.int32)
     labels = np.where(objects & (flooded <= n), flooded, 0)
-    labels = _fill_holes(_adopt_orphans(labels, objects & (labels == 0), n), objects)
-    return _renumber(_join_parts(labels, hm))
-
-
-def _join_parts(labels: np.ndarray, hm: Heightmap) -> np.ndarray:
-    """Touching labels that are parts of one object joined (step 6 of the method): their median colours differ by
-    less than JOIN_COLOUR (chroma, and lightness weighted by LIGHTNESS_WEIGHT), they share at least JOIN_CONTACT
-    times the square root of the smaller one's area of 4-neighbour contacts, and their cells along the contact stand
-    within JOIN_STEP_M of each other (`_crease`: two faces of one object meeting at an edge, not a step from one
-    object onto another)."""
-    ids = [int(i) for i in np.unique(labels[labels > 0])]
-    if len(ids) < 2:
-        return labels
-    lab = lab_image(np.asarray(hm.color))
-    height = np.asarray(hm.height, np.float64)
-    contacts: dict[tuple[int, int], int] = {}
-    for a, b in ((labels[:, :-1], labels[:, 1:]), (labels[:-1, :], labels[1:, :])):
-        touch = (a > 0) & (b > 0) & (a != b)
-        pairs, counts = np.unique(np.stack([np.minimum(a[touch], b[touch]), np.maximum(a[touch], b[touch])]),
-                                  axis=1, return_counts=True)
-        for (x, y), n in zip(pairs.T.tolist(), counts.tolist(), strict=True):
-            contacts[(x, y)] = contacts.get((x, y), 0) + n
-    parent = {i: i for i in ids}
-
-    def root(x: int) -> int:
-        while parent[x] != x:
-            x = parent[x]
-        return x
-
-    kernel = np.ones((3, 3), np.uint8)
-    for (x, y), n in sorted(contacts.items()):
-        one, two = labels == x, labels == y
-        if n < JOIN_CONTACT * min(int(one.sum()), int(two.sum())) ** 0.5:
-            continue
-        d = np.median(lab[one], axis=0) - np.median(lab[two], axis=0)
-        if math.hypot(float(d[1]), float(d[2])) >= JOIN_COLOUR or abs(float(d[0])) * LIGHTNESS_WEIGHT >= JOIN_COLOUR:
-            continue
-        if _crease(height, one, two, kernel):
-            parent[root(x)] = root(y)
-    remap = np.zeros(int(labels.max()) + 1, np.int32)
-    for i in ids:
-        remap[i] = root(i)
-    return remap[labels]
-
-
-def _crease(height: np.ndarray, one: np.ndarray, two: np.ndarray, kernel: np.ndarray) -> bool:
-    """Whether touching labels `one` and `two` ((H, W) bool) meet at a crease rather than a step: the median heights
-    of their cells along the contact differ by less than JOIN_STEP_M."""
-    rim_one = cv2.dilate(two.astype(np.uint8), kernel).astype(bool) & one
-    rim_two = cv2.dilate(one.astype(np.uint8), kernel).astype(bool) & two
-    return abs(float(np.median(height[rim_one]) - np.median(height[rim_two]))) < JOIN_STEP_M
+    return _renumber(_fill_holes(_adopt_orphans(labels, objects & (labels == 0), n), objects))
 
 
 def _fill_holes(labels: np.ndarray, objects: np.ndarray) -> np.ndarray:
