@@ -8,10 +8,11 @@ compares it with the heightmap the target was last found in: a cell is unchanged
 STILL_DEPTH_M and its colour within STILL_COLOUR. When STAY_FRACTION of the last mask is unchanged, the target did
 not move (the action went elsewhere): it keeps its unchanged cells and takes in the cells of the segments they
 mostly fill that did not rise (something moved in there); where those hold more than IN_PLACE_RATIO times the
-reference's area (a look-alike lies against it, in one segment) it keeps its unchanged cells alone. Whatever its
-area, it also takes in the cells of its segments that a removed cover laid bare (lower than before, or unseen
-before) and of its colour (within COLOUR_EDGE of the first view's), connected to it: a target mostly covered in its
-first view grows to all a push uncovers. Its form (area, heights, shape) then becomes the reference. When no push
+reference's area (a look-alike lies against it, in one segment) it keeps its unchanged cells alone. It also takes
+in the cells of its segments that a removed cover laid bare (lower than before, or unseen before) and of its colour
+(within COLOUR_EDGE of the first view's), connected to it, up to UNCOVERED_MAX_M2 if that is more: a target mostly
+covered in its first view grows to what a push uncovers, and not into a merged neighbour of its colour that moved.
+Its form (area, heights, shape) then becomes the reference. When no push
 was predicted to move it and its cells are unchanged or lie under another object that moved onto it (they rose and
 changed colour), it is "partly covered": its visible part; with too little of it in view, "covered": an empty,
 unsure track, the last view kept to compare the next with, so that it is in place again once the cover leaves. An
@@ -100,6 +101,7 @@ STILL_COLOUR = 10.0  # ... and its Lab colour (lightness weighted) by less than 
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
 UNKNOWN_TERM = 0.5  # the area and shape terms of a segment larger than a partly covered target's record
 IN_PLACE_RATIO = 2.5  # a target in place grows to at most this many times the reference area (half covered: 2)
+UNCOVERED_MAX_M2 = 0.002  # ... or, when a cover left, to this area (m^2; 4.5 x 4.5 cm) if that is more
 
 
 @dataclass(frozen=True, eq=False)
@@ -261,12 +263,14 @@ class TargetTracker:
 
     def _in_place(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, stay: np.ndarray,
                   arrived: np.ndarray, uncovered: np.ndarray) -> Track:
-        """The target that did not move (STAY_FRACTION of its last mask unchanged): its unchanged cells `stay` and
-        the cells of the segments they mostly fill that did not rise (a rise is something that moved in), while
-        that holds at most IN_PLACE_RATIO times the reference's area (beyond it a look-alike lies against it:
-        `stay` alone); plus, at any area, the `uncovered` cells (lower than before, or unseen before) of the
-        segments `stay` lies in, connected to it: what a removed cover laid bare. When it grew so, the form of the
-        reference follows it (the colour stays the first view's)."""
+        """The target that did not move (STAY_FRACTION of its last mask unchanged): its unchanged cells `stay`, the
+        cells of the segments they mostly fill that did not rise (a rise is something that moved in) and the
+        `uncovered` cells of its colour (lower than before, or unseen before) of the segments `stay` lies in (what a
+        removed cover laid bare), connected to `stay`; the first of those with the uncovered cells, without the
+        segments' other cells, or without the uncovered cells that stays within IN_PLACE_RATIO times the
+        reference's area or UNCOVERED_MAX_M2, whichever is more; else `stay` alone (a look-alike lies against it,
+        in one segment). When it grew so, the form of the reference follows it (the colour stays the first
+        view's)."""
         assert self.reference is not None
         segs, bared = np.zeros_like(stay), np.zeros_like(stay)
         weights = np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
@@ -278,10 +282,15 @@ class TargetTracker:
             if label and 2 * int((seg & stay).sum()) >= min(int(seg.sum()), int(stay.sum())):
                 segs |= seg
         grown = stay | (segs & ~arrived)
-        whole = int(grown.sum()) <= IN_PLACE_RATIO * self.reference.area
-        _, parts = cv2.connectedComponents(((grown if whole else stay) | bared).astype(np.uint8), connectivity=8)
-        mask = np.isin(parts, np.unique(parts[stay]))
-        if whole or (mask & bared).any():
+        limit = max(IN_PLACE_RATIO * self.reference.area, UNCOVERED_MAX_M2 / self.resolution**2)
+        mask, whole = stay, False
+        for candidate in (grown | bared, stay | bared, grown):
+            _, parts = cv2.connectedComponents(candidate.astype(np.uint8), connectivity=8)
+            part = np.isin(parts, np.unique(parts[stay]))
+            if part.sum() <= limit:
+                mask, whole = part, True
+                break
+        if whole:
             seen = describe(hm, mask, lab)
             self.reference = replace(seen, lab=self.reference.lab, partial=partly_covered(hm, mask))
         left_out = ", a touching object left out" if (segs & ~mask).sum() >= MIN_OBJECT_CELLS else ""
