@@ -8,16 +8,15 @@ compares it with the heightmap the target was last found in: a cell is unchanged
 STILL_DEPTH_M and its colour within STILL_COLOUR. When STAY_FRACTION of the last mask is unchanged, the target did
 not move (the action went elsewhere): it keeps its unchanged cells and takes in the cells of the segments they
 mostly fill that did not rise (something moved in there); where those hold more than IN_PLACE_RATIO times the
-reference's area (a look-alike lies against it, in one segment) it keeps its unchanged cells alone. It also takes
-in the cells of its segments that a removed cover laid bare (lower than before, or unseen before) and of its colour
+reference's area (a look-alike lies against it, in one segment) it keeps its unchanged cells alone. It also takes in
+the cells of its segments that a removed cover laid bare (lower than before, or unseen before) and of its colour
 (within COLOUR_EDGE of the first view's), connected to it, up to UNCOVERED_MAX_M2 if that is more: a target mostly
 covered in its first view grows to what a push uncovers, and not into a merged neighbour of its colour that moved.
-Its form (area, heights, shape) then becomes the reference. When no push
-was predicted to move it and its cells are unchanged or lie under another object that moved onto it (they rose and
-changed colour), it is "partly covered": its visible part; with too little of it in view, "covered": an empty,
-unsure track, the last view kept to compare the next with, so that it is in place again once the cover leaves. An
-"in place" or "partly covered" track is as sure as the last track that found the target: it says the object did not
-move, not that it is the target.
+Its form (area, heights, shape) then becomes the reference. When no push was predicted to move it and its cells are
+unchanged or lie under another object that moved onto it (they rose and changed colour), it is "partly covered": its
+visible part; with too little of it in view, "covered": an empty, unsure track, the last view kept to compare the
+next with, so that it is in place again once the cover leaves. An "in place" or "partly covered" track is as sure as
+the last track that found the target: it says the object did not move, not that it is the target.
 
 Otherwise the target moved, and every segment, less the unchanged cells that were not the target's (neighbours
 that did not move), is scored against the first view's record; when none is found so, every whole segment is
