@@ -32,21 +32,17 @@ TEST(ProjectorConfig, LoadsWorkspaceYaml) {
 
 // Configuration errors are pg_core::WorkspaceConfig's (see its own test); the projector adds its own checks.
 TEST(ProjectorConfig, ErrorsNameTheKey) {
-  const std::string ok_frames = "frames: {world: world}\n";
-  try {
-    pg_core::WorkspaceConfig::fromString(ok_frames +
-                                         "workspace: {x: [0, 1], y: [0, 1]}\nheightmap: {resolution: 0.1}\n");
-    FAIL() << "expected std::runtime_error";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("workspace.z"), std::string::npos) << e.what();
-  }
-  try {
-    pg_core::WorkspaceConfig::fromString(ok_frames +
-                                         "workspace: {x: [0, 1], y: [0, 1], z: [0, 1]}\nheightmap: {resolution: -1}\n");
-    FAIL() << "expected std::runtime_error";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("heightmap.resolution"), std::string::npos) << e.what();
-  }
+  const auto expectErrorNaming = [](const std::string& yaml, const std::string& key) {
+    try {
+      pg_core::WorkspaceConfig::fromString("frames: {world: world}\n" + yaml);
+      FAIL() << "expected std::runtime_error naming " << key;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  };
+  expectErrorNaming("workspace: {x: [0, 1], y: [0, 1]}\nheightmap: {resolution: 0.1}\n", "workspace.z");
+  expectErrorNaming("workspace: {x: [0, 1], y: [0, 1], z: [0, 1]}\nheightmap: {resolution: -1}\n",
+                    "heightmap.resolution");
   EXPECT_THROW(pg_core::WorkspaceConfig::fromFile("/nonexistent/workspace.yaml"), std::runtime_error);
   ProjectorConfig bad;
   bad.bounds = {0.0, 0.008, 0.0, 0.006, 0.1, 0.5};

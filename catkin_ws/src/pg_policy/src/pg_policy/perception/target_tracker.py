@@ -210,9 +210,10 @@ class TargetTracker:
         if merged:
             return Track(mask, float(best), True,
                          f"{where}merged with a touching object: cut to the predicted place ({detail})")
-        if best < SURE_SCORE or where:
-            return Track(mask, float(best), True, f"{where}weak match {best:.2f} < {SURE_SCORE} ({detail})"
-                         if best < SURE_SCORE else f"{where}match {best:.2f} ({detail})")
+        if best < SURE_SCORE:
+            return Track(mask, float(best), True, f"{where}weak match {best:.2f} < {SURE_SCORE} ({detail})")
+        if where:
+            return Track(mask, float(best), True, f"{where}match {best:.2f} ({detail})")
         if best - runner < MARGIN:
             return Track(mask, float(best), True, f"ambiguous: runner-up scores {runner:.2f} against {best:.2f}")
         return Track(mask, float(best), False, f"match {best:.2f} ({detail})")
