@@ -201,6 +201,11 @@ def test_pybullet_dynamics_and_limits(urdf_robot, urdf_geometry):
             assert mass == pytest.approx(r.link_masses[i])
         for frame in ("tool0", "gripper_tcp"):  # no default 1 kg on frame-only links
             assert p.getDynamicsInfo(rb.body, rb.link[f"{arm}_{frame}"], physicsClientId=rb.cid)[0] < 0.01
+        for k in (1, 2):  # rubber pads: the config's friction, not PyBullet's default 0.5
+            finger = p.getDynamicsInfo(rb.body, rb.link[f"{arm}_gripper_finger{k}_link"], physicsClientId=rb.cid)
+            assert finger[1] == pytest.approx(urdf_geometry.gripper.pad_friction)
+        palm = p.getDynamicsInfo(rb.body, rb.link[f"{arm}_gripper_palm_link"], physicsClientId=rb.cid)
+        assert palm[1] == pytest.approx(0.5)
 
 
 def test_pybullet_fk_equals_dh(urdf_robot, urdf_geometry):

@@ -111,6 +111,9 @@ class GripperSpec:
     finger_force: float
     finger_speed: float
     closed_threshold: float
+    # Lateral friction coefficient of the finger pads (simulation: the fingers' URDF <contact>; PyBullet multiplies it
+    # with an object's own). Absent: 0.5, PyBullet's default for a link without one.
+    pad_friction: float = 0.5
 
 
 @dataclass(frozen=True)

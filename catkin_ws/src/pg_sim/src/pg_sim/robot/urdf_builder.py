@@ -17,7 +17,8 @@ Units: metres, radians, kilograms. Frames (DESIGN.md section 3):
 - Gripper (2F-85-like) on tool0: ``<arm>_gripper_palm_link`` (frame = tool0), two independent prismatic fingers
   ``<arm>_gripper_finger1_joint`` (+x of tool0) and ``<arm>_gripper_finger2_joint`` (-x), each in
   [0, max_opening / 2], opening = q1 + q2 (0 = closed, inner faces touching at x = 0). No ``<mimic>``: the sim
-  drives and publishes both fingers. ``<arm>_gripper_tcp`` is the fingertip centre at tool0 z = tcp_offset.
+  drives and publishes both fingers. ``<arm>_gripper_tcp`` is the fingertip centre at tool0 z = tcp_offset. The
+  finger links carry ``gripper.pad_friction`` as a ``<contact>`` lateral friction (rubber pads).
 - ``camera_color_optical_frame`` exactly at ``camera.xyz/rpy`` (z along the view, x right, y down in the image);
   ``camera_link`` has the same origin, rotated to REP-103 x-forward (x = optical z, y = -optical x,
   z = -optical y), i.e. ``camera_link -> camera_color_optical_frame`` is rpy (-pi/2, 0, -pi/2).
@@ -124,8 +125,11 @@ def _inertial_xml(com: Sequence[float], rpy: Sequence[float], mass: float, momen
     ]
 
 
-def _link(name: str, shapes: Sequence[Shape] = (), mass: float | None = None) -> list[str]:
-    """A link with visual+collision per shape; ``mass`` None -> a frame-only link with a negligible inertial."""
+def _link(name: str, shapes: Sequence[Shape] = (), mass: float | None = None,
+          friction: float | None = None) -> list[str]:
+    """A link with visual+collision per shape; ``mass`` None -> a frame-only link with a negligible inertial;
+    ``friction``: a ``<contact>`` lateral friction coefficient (PyBullet's URDF extension; others ignore it), None
+    for none (PyBullet's default, 0.5)."""
     out = [f'  <link name="{name}">']
     if mass is None:
         out += _inertial_xml((0, 0, 0), (0, 0, 0), FRAME_MASS, (FRAME_INERTIA,) * 3)
@@ -148,6 +152,8 @@ def _link(name: str, shapes: Sequence[Shape] = (), mass: float | None = None) ->
             f"      {_geometry(s)}",
             "    </collision>",
         ]
+    if friction is not None:
+        out += ["    <contact>", f'      <lateral_friction value="{_f(friction)}"/>', "    </contact>"]
     out.append("  </link>")
     return out
 
@@ -328,7 +334,7 @@ def build_urdf(geometry: Any) -> str:
         half = 0.5 * grip.max_opening
         flim = (0.0, half, grip.finger_force, grip.finger_speed)
         for k, sign in ((1, 1.0), (2, -1.0)):
-            out += _link(f"{g}finger{k}_link", gshapes[f"finger{k}"], grip.finger_mass)
+            out += _link(f"{g}finger{k}_link", gshapes[f"finger{k}"], grip.finger_mass, grip.pad_friction)
             out += _joint(
                 f"{g}finger{k}_joint", "prismatic", g + "palm_link", f"{g}finger{k}_link", axis=(sign, 0, 0), limit=flim
             )
