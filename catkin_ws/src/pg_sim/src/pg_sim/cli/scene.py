@@ -62,6 +62,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     probe_arguments(probe)
     probe.set_defaults(run=_grasp_probe)
 
+    from pg_sim.world.throw_probe import add_arguments as throw_arguments
+
+    throw = cmds.add_parser("throw-probe", help="how far grasps off a household object's centre move it when they "
+                                                "miss (objects squeezed out between finger and table)")
+    throw_arguments(throw)
+    throw.set_defaults(run=_throw_probe)
+
 
 def _list(args: argparse.Namespace) -> int:
     from pg_sim.scenes.scene import find_scene, list_scenes, load_scene
@@ -148,6 +155,12 @@ def _bench(args: argparse.Namespace) -> int:
 
 def _grasp_probe(args: argparse.Namespace) -> int:
     from pg_sim.world.grasp_probe import execute
+
+    return execute(args)
+
+
+def _throw_probe(args: argparse.Namespace) -> int:
+    from pg_sim.world.throw_probe import execute
 
     return execute(args)
 
