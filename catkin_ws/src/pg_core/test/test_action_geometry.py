@@ -114,7 +114,10 @@ def _bowl(height, color, rc, cc, radius=0.055, rim=0.05, floor=0.009, floor_r=0.
     return height, color
 
 
-def _z(height, color, row, col, yaw, prims=PRIMS):
+PIT = replace(PRIMS, grasp_palm_clearance=None)  # the jaw-line pit rule alone (the palm rule: test_palm_clearance.py)
+
+
+def _z(height, color, row, col, yaw, prims=PIT):
     return grasp_z(height, row, col, prims, yaw=yaw, color=color, resolution=RES)
 
 
@@ -253,14 +256,14 @@ def test_the_jaw_line_needs_the_resolution_and_is_off_without_the_keys(tmp_path)
     height, color = _bowl(*_scene(), 70, 70)
     with pytest.raises(ValueError, match="resolution"):
         grasp_z(height, 70, 56, PRIMS, yaw=0.0)
-    off = replace(PRIMS, grasp_rim_step=0.0)
+    off = replace(PIT, grasp_rim_step=0.0)
     assert _z(height, color, 70, 56, 0.0, off) == grasp_z(height, 70, 56, PRIMS)
 
     def drop(prims):
         for key in ("grasp_rim_depth", "grasp_rim_clearance", "grasp_rim_step", "grasp_rim_wall", "grasp_rim_reach"):
             del prims[key]
 
-    absent = _load(tmp_path, drop).primitives
+    absent = replace(_load(tmp_path, drop).primitives, grasp_palm_clearance=None)
     assert absent.grasp_rim_step == 0.0 and absent.grasp_rim_reach == 0.0
     assert _z(height, color, 70, 56, 0.0, absent) == grasp_z(height, 70, 56, PRIMS)
 

@@ -31,15 +31,17 @@ def _write(tmp_path, raw):
     return path
 
 
-def test_grasp_stop_force_is_optional_and_off_when_absent(tmp_path):
+@pytest.mark.parametrize("key", ["grasp_stop_force", "push_stop_force"])
+def test_stop_forces_are_optional_and_off_when_absent(tmp_path, key):
     raw = yaml.safe_load(geometry.DEFAULT_CONFIG.read_text())
-    del raw["primitives"]["grasp_stop_force"]
-    assert geometry.load(_write(tmp_path, raw)).primitives.grasp_stop_force == 0.0
+    raw["primitives"].pop(key, None)
+    assert getattr(geometry.load(_write(tmp_path, raw)).primitives, key) == 0.0
 
 
-@pytest.mark.parametrize("bad", [-1.0, "ten"])
-def test_grasp_stop_force_must_be_a_non_negative_number(tmp_path, bad):
+@pytest.mark.parametrize("key", ["grasp_stop_force", "push_stop_force"])
+@pytest.mark.parametrize("bad", [-1.0, "ten", True, float("inf")])
+def test_stop_forces_must_be_non_negative_numbers(tmp_path, key, bad):
     raw = yaml.safe_load(geometry.DEFAULT_CONFIG.read_text())
-    raw["primitives"]["grasp_stop_force"] = bad
-    with pytest.raises(ValueError, match="grasp_stop_force"):
+    raw["primitives"][key] = bad
+    with pytest.raises(ValueError, match=key):
         geometry.load(_write(tmp_path, raw))

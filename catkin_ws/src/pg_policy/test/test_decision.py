@@ -2,6 +2,7 @@
 
 import dataclasses
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -131,15 +132,21 @@ def test_world_pose_of_corners():
 
 
 def test_push_height_from_local_max():
+    no_palm = replace(PRIMS, grasp_palm_clearance=None)  # section 4's push height alone
     height = np.zeros((H, W))
     height[120, 100 + PRIMS.push_window_px] = 0.08  # inside the window
     height[120 - PRIMS.push_window_px - 1, 100] = 0.2  # just outside
     hm = _hm(height)
-    assert action_pose(hm, "push", 0, 120, 100, PRIMS)[2] == pytest.approx(0.08 - PRIMS.push_depth)
+    assert action_pose(hm, "push", 0, 120, 100, no_palm)[2] == pytest.approx(0.08 - PRIMS.push_depth)
     assert action_pose(_hm(), "push", 0, 120, 100, PRIMS)[2] == pytest.approx(PRIMS.push_min_z)
     assert action_pose(_hm(), "grasp", 0, 120, 100, PRIMS)[2] == pytest.approx(PRIMS.grasp_min_z)
-    d = decide(_q(), _q((0, 120, 100, 1.0)), _target(), hm, PRIMS, 1.0)
+    d = decide(_q(), _q((0, 120, 100, 1.0)), _target(), hm, no_palm, 1.0)
     assert (d.primitive, d.z) == ("push", pytest.approx(0.07))
+    # the palm rule: the 0.2 m post lies 12 mm across the push at rotation 0 (under the palm, 25 mm to each side);
+    # at rotation 4 (pushing along +y) it lies 12 mm behind the start, under the palm's 55 mm too
+    for rotation in (0, 4):
+        assert action_pose(hm, "push", rotation, 120, 100, PRIMS)[2] == pytest.approx(
+            0.2 - PRIMS.finger_length + PRIMS.grasp_palm_clearance)
 
 
 def test_yaw_for_other_rotation_counts():

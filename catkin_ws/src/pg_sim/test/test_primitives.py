@@ -200,6 +200,39 @@ def test_guarded_descent_still_grasps_a_cube_between_the_fingers(world):
     assert res.grasped and res.grasped_object == body, res.message
 
 
+@pytest.mark.parametrize("newtons", [0.0, 30.0])
+def test_guarded_push_descent_pushes_a_cube_it_starts_over_at_push_speed(world, monkeypatch, newtons):
+    # The closed fingers start over a 45 mm cube's top: push z (local max - push_depth) drives them 1 cm into it and
+    # the contact solver shoves it off at 0.3-0.5 m/s; a guarded descent stops on the top face and the push carries
+    # the cube along at about push_speed (0.1 m/s).
+    import math
+
+    import pybullet as p
+
+    peak, cube = [0.0], []
+    step = World.step
+
+    def timed_step(self):  # the cube's fastest speed (m/s) once it is loaded
+        t = step(self)
+        if cube:
+            peak[0] = max(peak[0], math.hypot(*p.getBaseVelocity(cube[0], physicsClientId=self.client)[0]))
+        return t
+
+    monkeypatch.setattr(World, "step", timed_step)
+    geometry = replace(world.geometry, primitives=replace(world.geometry.primitives, push_stop_force=newtons))
+    with World(geometry, mode="faithful") as guarded:
+        body = _one_cube(guarded, 0.0, 0.0, 0.0)
+        height, r, c = _heights(guarded, 0.0, 0.0)
+        z = push_z(height, r, c, guarded.geometry.primitives)
+        cube.append(body)
+        res = PrimitiveExecutor(guarded).push(0.0, 0.0, z, 0.0)
+    assert res.executed and peak[0] > 0.05, (res.message, peak)
+    if newtons > 0:
+        assert peak[0] < 0.2, peak
+    else:
+        assert peak[0] > 0.25, peak
+
+
 @pytest.mark.parametrize("width", [0.012, 0.02, 0.03])
 def test_light_narrow_block_grasped_at_grasp_min_z(world, width):
     """A 10 g block 40 mm tall and 12-30 mm wide, alone, grasped at its centre with the fingertips at grasp_min_z:

@@ -5,7 +5,8 @@ Heights are TCP (fingertip centre) z in `world`, metres. Heightmap heights are m
 The grasp height (DESIGN.md section 4, the primitive's contract) comes from the cell's height (`grasp_z_for_height`:
 section 4's rule, the low-object rule below 2 cm) unless the cell lies in a pit of an object along the jaw's closing
 line (`rim_pit`: the floor or inner wall of a bowl or a cup next to its wall); there the fingertips go below the
-wall's top and above the floor (`grasp_z` with the rotation's yaw).
+wall's top and above the floor (`grasp_z` with the rotation's yaw). With the yaw, the palm rule then keeps the palm
+clear of everything under its footprint (`palm_clear_z`): a grasp never drives the palm into an object.
 """
 
 from __future__ import annotations
@@ -147,6 +148,35 @@ def rim_pit(height: np.ndarray, row: int, col: int, yaw: float, resolution: floa
     return RimPit(centre, min(side[0] for side in sides if side is not None))
 
 
+@lru_cache(maxsize=64)
+def _palm_offsets(yaw: float, half_x: float, half_y: float) -> tuple[np.ndarray, np.ndarray]:
+    """(row, col) offsets, in cells, of the cells whose centres lie in the palm's footprint: |u| <= half_x along the
+    closing line (cos yaw, sin yaw) (columns along x, rows along y) and |v| <= half_y across it (both in cells)."""
+    r = int(math.ceil(math.hypot(half_x, half_y)))
+    dr, dc = np.mgrid[-r:r + 1, -r:r + 1]
+    u = dc * math.cos(yaw) + dr * math.sin(yaw)
+    v = -dc * math.sin(yaw) + dr * math.cos(yaw)
+    keep = (np.abs(u) <= half_x + 1e-9) & (np.abs(v) <= half_y + 1e-9)
+    return dr[keep].astype(np.int64), dc[keep].astype(np.int64)
+
+
+def palm_clear_z(height: np.ndarray, row: int, col: int, yaw: float, resolution: float, prims: PrimitiveSpec,
+                 zmin: float = 0.0) -> float | None:
+    """The lowest fingertip z (m, `world`) that keeps the palm clear: the highest cell under the palm's footprint
+    (prims.palm_footprint, centred on (row, col), its x along the closing line at `yaw` rad; cells beyond the map
+    left out) - prims.finger_length + prims.grasp_palm_clearance. None when the rule is off (grasp_palm_clearance
+    None). A palm driven into an object presses it into the table with the arm's full force until it squeezes
+    out sideways (docs/RESULTS.md, "The palm clearance")."""
+    if prims.grasp_palm_clearance is None:
+        return None
+    half_x, half_y = (0.5 * size / resolution for size in prims.palm_footprint)
+    dr, dc = _palm_offsets(round(float(yaw), 9), round(half_x, 6), round(half_y, 6))
+    rr, cc = row + dr, col + dc
+    inside = (rr >= 0) & (rr < height.shape[0]) & (cc >= 0) & (cc < height.shape[1])
+    top = float(height[rr[inside], cc[inside]].max()) + zmin if inside.any() else zmin
+    return top - prims.finger_length + prims.grasp_palm_clearance
+
+
 def grasp_z(height: np.ndarray, row: int, col: int, prims: PrimitiveSpec, zmin: float = 0.0, *,
             yaw: float | None = None, color: np.ndarray | None = None, resolution: float | None = None) -> float:
     """Fingertip z (m) of a grasp at the pixel (heightmap heights are above zmin).
@@ -155,15 +185,20 @@ def grasp_z(height: np.ndarray, row: int, col: int, prims: PrimitiveSpec, zmin: 
     needed then; `color`: the (H, W, 3) colour heightmap, optional): where the pixel lies in a pit along the jaw
     line (`rim_pit`: a bowl's floor or inner wall next to its rim, the inside of a cup or a mug), z = max(rim -
     grasp_rim_depth, floor + grasp_rim_clearance): one finger inside the wall and one outside, the fingertips below
-    the rim and above the floor; elsewhere grasp_z_for_height of the pixel's height.
+    the rim and above the floor; elsewhere grasp_z_for_height of the pixel's height. With the yaw, z is then raised
+    to `palm_clear_z` where the palm would otherwise meet an object (the palm rule, when configured).
     """
-    if yaw is not None:
-        if resolution is None:
-            raise ValueError("grasp_z: the jaw-line rule (yaw given) needs the heightmap resolution")
-        pit = rim_pit(height, row, col, yaw, resolution, prims, zmin, color)
-        if pit is not None:
-            return max(pit.rim - prims.grasp_rim_depth, pit.floor + prims.grasp_rim_clearance)
-    return grasp_z_for_height(float(height[row, col]) + zmin, prims)
+    if yaw is None:
+        return grasp_z_for_height(float(height[row, col]) + zmin, prims)
+    if resolution is None:
+        raise ValueError("grasp_z: the jaw-line rule (yaw given) needs the heightmap resolution")
+    pit = rim_pit(height, row, col, yaw, resolution, prims, zmin, color)
+    if pit is not None:
+        z = max(pit.rim - prims.grasp_rim_depth, pit.floor + prims.grasp_rim_clearance)
+    else:
+        z = grasp_z_for_height(float(height[row, col]) + zmin, prims)
+    palm = palm_clear_z(height, row, col, yaw, resolution, prims, zmin)
+    return z if palm is None else max(z, palm)
 
 
 def grasp_z_at(heightmap: Heightmap, row: int, col: int, prims: PrimitiveSpec, yaw: float | None = None) -> float:
@@ -173,6 +208,15 @@ def grasp_z_at(heightmap: Heightmap, row: int, col: int, prims: PrimitiveSpec, y
                    resolution=heightmap.resolution)
 
 
-def push_z(height: np.ndarray, row: int, col: int, prims: PrimitiveSpec, zmin: float = 0.0) -> float:
-    """z = local max height (+- push_window_px) - push_depth, never below push_min_z."""
-    return max(local_max(height, row, col, prims.push_window_px) + zmin - prims.push_depth, prims.push_min_z)
+def push_z(height: np.ndarray, row: int, col: int, prims: PrimitiveSpec, zmin: float = 0.0, *,
+           yaw: float | None = None, resolution: float | None = None) -> float:
+    """Fingertip z (m) of a push starting at the pixel: the local max height (+- push_window_px) - push_depth, never
+    below push_min_z (DESIGN.md section 4). With the push's `yaw` (rad; the palm's x along it; `resolution`, m per
+    cell, needed then), raised to `palm_clear_z` where the descending palm would otherwise land on an object."""
+    z = max(local_max(height, row, col, prims.push_window_px) + zmin - prims.push_depth, prims.push_min_z)
+    if yaw is None:
+        return z
+    if resolution is None:
+        raise ValueError("push_z: the palm rule (yaw given) needs the heightmap resolution")
+    palm = palm_clear_z(height, row, col, yaw, resolution, prims, zmin)
+    return z if palm is None else max(z, palm)

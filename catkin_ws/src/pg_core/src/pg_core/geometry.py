@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import MISSING, dataclass
+from dataclasses import MISSING, dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -135,6 +135,9 @@ class PrimitiveSpec:
     # an object or the table, as a real arm's force limit would; 0 = descend to the planned z regardless. Optional
     # in the YAML (0 when absent).
     grasp_stop_force: float = 0.0
+    # Guarded push descent: the closed fingers stop coming down where the objects press up on them and the palm with
+    # more than this (N), and the push travels from there; 0 = descend to the planned z regardless. Optional.
+    push_stop_force: float = 0.0
     # Low objects (pg_core.action_geometry.grasp_z_for_height): local heights h in [lo, hi) m take the fingertip z
     # max(grasp_low_fraction * h, grasp_low_min_z) instead of max(h - grasp_depth, grasp_min_z). Optional in the
     # YAML; absent = an empty range, the DESIGN section 4 rule everywhere.
@@ -150,6 +153,13 @@ class PrimitiveSpec:
     grasp_rim_step: float = 0.0
     grasp_rim_wall: float = 0.0
     grasp_rim_reach: float = 0.0
+    # Palm clearance (pg_core.action_geometry.palm_clear_z): the fingertip z is at least the highest cell under the
+    # palm's footprint - the finger length + this (m), so that the palm never drives into an object. Optional in the
+    # YAML; absent (None) = no palm rule. palm_footprint (x along the closing axis, y; m) and finger_length (m) are
+    # not YAML keys: `parse` copies them from gripper.palm_size and gripper.finger_size.
+    grasp_palm_clearance: float | None = None
+    palm_footprint: tuple[float, float] = (0.0, 0.0)
+    finger_length: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -250,6 +260,10 @@ def _check_low_grasp(prims: PrimitiveSpec) -> None:
         value = getattr(prims, key)
         checks[key] = (isinstance(value, int | float) and not isinstance(value, bool) and 0.0 <= value < math.inf,
                        f"must be a length >= 0 m, got {value!r}")
+    palm = prims.grasp_palm_clearance
+    checks["grasp_palm_clearance"] = (palm is None or (isinstance(palm, int | float) and not isinstance(palm, bool)
+                                                       and 0.0 <= palm < math.inf),
+                                      f"must be a length >= 0 m or absent, got {palm!r}")
     for key, (ok, what) in checks.items():
         if not ok:
             raise ValueError(f"geometry config: 'primitives.{key}' {what}")
@@ -268,10 +282,14 @@ def parse(raw: dict, path: Path) -> Geometry:
     )
     frames = _get(raw, "frames", "")
     primitives = _section(raw, "primitives", PrimitiveSpec, {"grasp_low_heights": 2})
-    if not isinstance(primitives.grasp_stop_force, int | float) or primitives.grasp_stop_force < 0:
-        raise ValueError(f"geometry config: 'primitives.grasp_stop_force' must be a force >= 0 N (0 = off), "
-                         f"got {primitives.grasp_stop_force!r}")
+    for key in ("grasp_stop_force", "push_stop_force"):
+        force = getattr(primitives, key)
+        if not isinstance(force, int | float) or isinstance(force, bool) or not 0 <= force < math.inf:
+            raise ValueError(f"geometry config: 'primitives.{key}' must be a force >= 0 N (0 = off), got {force!r}")
     _check_low_grasp(primitives)
+    gripper = _section(raw, "gripper", GripperSpec, {"palm_size": 3, "finger_size": 3})
+    primitives = replace(primitives, palm_footprint=(gripper.palm_size[0], gripper.palm_size[1]),
+                         finger_length=gripper.finger_size[2])
     return Geometry(
         path=path,
         world_frame=str(_get(frames, "world", "frames.")),
@@ -281,7 +299,7 @@ def parse(raw: dict, path: Path) -> Geometry:
         camera=_section(raw, "camera", CameraSpec, {"xyz": 3, "rpy": 3}),
         table=_section(raw, "table", TableSpec, {"size": 3, "center_xy": 2}),
         robot=_robot(raw),
-        gripper=_section(raw, "gripper", GripperSpec, {"palm_size": 3, "finger_size": 3}),
+        gripper=gripper,
         primitives=primitives,
     )
 

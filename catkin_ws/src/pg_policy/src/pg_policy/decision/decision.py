@@ -117,10 +117,12 @@ def action_pose(heightmap: Heightmap, primitive: str, rotation: int, row: int, c
         raise ValueError(f"cell ({row}, {col}) outside the {h} x {w} heightmap")
     x, y = pixel_to_world(row, col, heightmap.bounds, heightmap.resolution)
     yaw = rotation_yaw(rotation, rotations)
-    if primitive == "grasp":  # the cell's height, or below the rim of a pit along the jaw line at this yaw
+    if primitive == "grasp":  # the cell's height, or below the rim of a pit along the jaw line at this yaw; both
+        # rules then keep the palm clear of what lies under it at this yaw (pg_core.action_geometry.palm_clear_z)
         z = grasp_z_at(heightmap, row, col, prims, yaw=yaw)
     else:
-        z = push_z(heightmap.height, row, col, prims, zmin=float(heightmap.bounds[2, 0]))
+        z = push_z(heightmap.height, row, col, prims, zmin=float(heightmap.bounds[2, 0]), yaw=yaw,
+                   resolution=heightmap.resolution)
     return x, y, z, yaw
 
 

@@ -178,7 +178,7 @@ class HeuristicPlanner:
                 pix = self._pixel(hm, sc)
                 if pix is None or not self._inside(sc, 0.0):
                     break
-                zp = push_z(hm.height, pix[0], pix[1], prims)
+                zp = push_z(hm.height, pix[0], pix[1], prims, yaw=yaw, resolution=hm.resolution)  # as action_pose
                 s0 = back - a - delta
                 foot = (np.abs(s_o - s0) <= a + p.margin) & (np.abs(v_o) <= b + p.margin) & (o_h > zp - 0.002)
                 if not foot.any():

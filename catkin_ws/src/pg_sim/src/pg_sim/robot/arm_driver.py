@@ -132,12 +132,13 @@ class ArmDriver:
         self.settle(qs[-1])
         return True
 
-    def finger_lift_force(self, bodies: Collection[int]) -> float:
-        """Upward force (N, world +z) that `bodies` exert on the two fingers through contact: the sum of normal
-        force x the z of the contact normal (which PyBullet gives on the other body, pointing at the finger)."""
+    def finger_lift_force(self, bodies: Collection[int], palm: bool = False) -> float:
+        """Upward force (N, world +z) that `bodies` exert on the two fingers (and the palm when `palm`) through
+        contact: the sum of normal force x the z of the contact normal (which PyBullet gives on the other body,
+        pointing at the gripper)."""
         total = 0.0
-        for finger in self.arm.fingers:
-            for c in p.getContactPoints(bodyA=self.body_, linkIndexA=finger, physicsClientId=self.client_):
+        for link in (*self.arm.fingers, self.arm.palm) if palm else self.arm.fingers:
+            for c in p.getContactPoints(bodyA=self.body_, linkIndexA=link, physicsClientId=self.client_):
                 if c[2] in bodies:
                     total += c[9] * c[7][2]
         return total

@@ -22,6 +22,7 @@ class ArmIndex:
     tool0: int
     tcp: int
     fingers: tuple[int, int]
+    palm: int  # the gripper's palm link
 
 
 @dataclass(frozen=True)
@@ -70,5 +71,6 @@ def index_robot(client: int, body: int, geometry: Geometry) -> RobotIndex:
             tool0=need(links, f"{arm}_tool0"),
             tcp=need(links, f"{arm}_gripper_tcp"),
             fingers=(need(joints, f"{arm}_gripper_finger1_joint"), need(joints, f"{arm}_gripper_finger2_joint")),
+            palm=need(links, f"{arm}_gripper_palm_link"),
         )
     return RobotIndex(body=body, arms=arms, movable=tuple(movable))

@@ -74,7 +74,10 @@ def run(objects: int = 20, primitives: int = 20, observations: int = 20, seed: i
             r, c = hm.world_to_pixel(x, y, obs.heightmap.bounds, obs.heightmap.resolution)
             r, c = int(np.clip(r, 0, 223)), int(np.clip(c, 0, 223))
             prims = world.geometry.primitives
-            z = grasp_z_at(obs.heightmap, r, c, prims, yaw=yaw) if grasp else push_z(obs.heightmap.height, r, c, prims)
+            if grasp:
+                z = grasp_z_at(obs.heightmap, r, c, prims, yaw=yaw)
+            else:
+                z = push_z(obs.heightmap.height, r, c, prims, yaw=yaw, resolution=obs.heightmap.resolution)
             t, t_sim = time.perf_counter(), world.sim_time
             try:
                 (ex.grasp if grasp else ex.push)(float(x), float(y), z, yaw)

@@ -154,12 +154,12 @@ class PrimitiveExecutor:
             opening = g.max_opening if primitive == "grasp" else 0.0
             driver.command_gripper(opening)
             self._free_move(driver, plan.arm, plan.approach, opening)
-            guard = self._descent_guard(driver) if primitive == "grasp" else None
+            guard = self._descent_guard(driver, primitive)
             reached = driver.follow(plan.cartesian[0], [length / speed for length in plan.lengths[0]], stop=guard)
             if primitive == "grasp":
                 with self._squeeze():
                     driver.gripper(0.0)
-                    lift = plan.cartesian[1] if reached else self._lift_from_here(driver, plan)
+                    lift = plan.cartesian[1] if reached else self._from_here(driver, plan.cartesian[1])
                     driver.follow(lift, [length / speed for length in plan.lengths[1]])
                     grasped = driver.opening() > g.closed_threshold
                     lifted = self._held_objects(driver) if grasped else []
@@ -169,6 +169,9 @@ class PrimitiveExecutor:
                     driver.gripper(g.max_opening)
             else:
                 pushing, after = plan.cartesian[1:], plan.lengths[1:]
+                if not reached:  # a guarded descent stopped above the planned start: push from that height
+                    shift = driver.joints() - pushing[0][0]
+                    pushing = [[q + shift for q in path] for path in pushing]  # the stroke and the retreat
                 driver.follow(pushing[0], [length / self.prims_.push_speed for length in after[0]])
                 driver.follow(pushing[1], [length / speed for length in after[1]])
                 message = "pushed"
@@ -194,21 +197,25 @@ class PrimitiveExecutor:
         finally:
             p.setPhysicsEngineParameter(numSolverIterations=before, physicsClientId=client)
 
-    def _descent_guard(self, driver: ArmDriver) -> Callable[[], bool] | None:
-        """Stop condition of the grasp descent: the objects press up on the fingers with more than
-        primitives.grasp_stop_force (N); None (no guard) when that is 0."""
-        limit = self.prims_.grasp_stop_force
+    def _descent_guard(self, driver: ArmDriver, primitive: str) -> Callable[[], bool] | None:
+        """Stop condition of the descent: for a grasp, the objects press up on the fingers with more than
+        primitives.grasp_stop_force (N); for a push, on the fingers and the palm with more than
+        primitives.push_stop_force (N). None (no guard) when that limit is 0."""
+        if primitive == "grasp":
+            limit, palm = self.prims_.grasp_stop_force, False
+        else:
+            limit, palm = self.prims_.push_stop_force, True
         if limit <= 0:
             return None
-        return lambda: driver.finger_lift_force(self.world_.objects) > limit
+        return lambda: driver.finger_lift_force(self.world_.objects, palm=palm) > limit
 
-    def _lift_from_here(self, driver: ArmDriver, plan: _Plan) -> list[np.ndarray]:
-        """The planned lift path shifted to start at the joints where a guarded descent stopped: the lift keeps
-        its length in joint space, so it rises by the planned lift height from the stop point (approximately:
-        the shift is small next to the path)."""
-        here = driver.joints()
-        shift = here - plan.cartesian[1][0]
-        return [q + shift for q in plan.cartesian[1]]
+    @staticmethod
+    def _from_here(driver: ArmDriver, path: list[np.ndarray]) -> list[np.ndarray]:
+        """The planned path shifted to start at the joints where a guarded descent stopped: it keeps its length in
+        joint space, so a lift rises by the planned lift height from the stop point (approximately: the shift is
+        small next to the path)."""
+        shift = driver.joints() - path[0]
+        return [q + shift for q in path]
 
     def _held_objects(self, driver: ArmDriver) -> list[int]:
         """Body ids of the objects the closed jaw lifted (ground truth), sorted: every object touching a finger

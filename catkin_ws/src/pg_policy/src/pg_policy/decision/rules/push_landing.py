@@ -47,7 +47,8 @@ class LandingGuard(Rule):
             raise ValueError(f"landing guard needs 0 <= max_cover <= 1 and top_k >= 1, got {max_cover}, {top_k}")
         self.prims = geometry.primitives
         self.max_cover, self.tol, self.top_k = max_cover, tol_m, top_k
-        res = geometry.heightmap.resolution
+        self.res = res = geometry.heightmap.resolution
+        self.rotations = geometry.heightmap.rotations
         half_u, half_v = geometry.gripper.finger_size[0], geometry.gripper.finger_size[1] / 2  # closed jaw, m
         n = int(math.ceil(max(half_u, half_v) * math.sqrt(2) / res))
         dr, dc = np.mgrid[-n:n + 1, -n:n + 1]
@@ -65,7 +66,7 @@ class LandingGuard(Rule):
         off = self.footprints[rotation]
         rr, cc = off[:, 0] + row, off[:, 1] + col
         on = (rr >= 0) & (rr < height.shape[0]) & (cc >= 0) & (cc < height.shape[1])
-        z = push_z(height, row, col, self.prims)
+        z = push_z(height, row, col, self.prims, yaw=rotation_yaw(rotation, self.rotations), resolution=self.res)
         return float((height[rr[on], cc[on]] > z + self.tol).sum()) / len(off)
 
     def allows(self, height: np.ndarray, rotation: int, row: int, col: int) -> bool:
