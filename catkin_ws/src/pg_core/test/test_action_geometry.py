@@ -6,7 +6,6 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-import yaml
 
 from pg_core import geometry
 from pg_core.action_geometry import grasp_z, grasp_z_for_height, rim_pit
@@ -64,20 +63,12 @@ def test_grasp_z_reads_the_pixel_and_zmin():
     assert grasp_z(height, 1, 2, PRIMS, zmin=0.03) == section4(0.04)
 
 
-def _load(tmp_path, edit):
-    raw = yaml.safe_load(geometry.DEFAULT_CONFIG.read_text())
-    edit(raw["primitives"])
-    path = tmp_path / "ws.yaml"
-    path.write_text(yaml.safe_dump(raw))
-    return geometry.load(path)
-
-
-def test_low_keys_are_optional_and_off_when_absent(tmp_path):
+def test_low_keys_are_optional_and_off_when_absent(load_edited):
     def drop(prims):
         for key in ("grasp_low_heights", "grasp_low_fraction", "grasp_low_min_z"):
             del prims[key]
 
-    prims = _load(tmp_path, drop).primitives
+    prims = load_edited(drop).primitives
     assert prims.grasp_low_heights == (0.0, 0.0)
     for h in (0.0, 0.003, 0.012, 0.045):
         assert grasp_z_for_height(h, prims) == section4(h)
@@ -86,9 +77,9 @@ def test_low_keys_are_optional_and_off_when_absent(tmp_path):
 @pytest.mark.parametrize("key, value", [("grasp_low_heights", [0.02, 0.002]), ("grasp_low_heights", [-0.001, 0.02]),
                                         ("grasp_low_heights", [0.002]), ("grasp_low_fraction", 1.5),
                                         ("grasp_low_fraction", "half"), ("grasp_low_min_z", -0.001)])
-def test_malformed_low_keys_are_named(tmp_path, key, value):
+def test_malformed_low_keys_are_named(load_edited, key, value):
     with pytest.raises(ValueError, match=f"primitives.{key}"):
-        _load(tmp_path, lambda prims: prims.__setitem__(key, value))
+        load_edited(lambda prims: prims.__setitem__(key, value))
 
 
 # -- pits along the jaw line (grasp_z with a yaw) --------------------------------------------------------------------
@@ -252,7 +243,7 @@ def test_a_mug_handle_keeps_the_cell_rule():
         assert _z(height, color, 70, 98, yaw) == grasp_z(height, 70, 98, PRIMS) == pytest.approx(0.07 - 0.04)
 
 
-def test_the_jaw_line_needs_the_resolution_and_is_off_without_the_keys(tmp_path):
+def test_the_jaw_line_needs_the_resolution_and_is_off_without_the_keys(load_edited):
     height, color = _bowl(*_scene(), 70, 70)
     with pytest.raises(ValueError, match="resolution"):
         grasp_z(height, 70, 56, PRIMS, yaw=0.0)
@@ -263,16 +254,16 @@ def test_the_jaw_line_needs_the_resolution_and_is_off_without_the_keys(tmp_path)
         for key in ("grasp_rim_depth", "grasp_rim_clearance", "grasp_rim_step", "grasp_rim_wall", "grasp_rim_reach"):
             del prims[key]
 
-    absent = replace(_load(tmp_path, drop).primitives, grasp_palm_clearance=None)
+    absent = replace(load_edited(drop).primitives, grasp_palm_clearance=None)
     assert absent.grasp_rim_step == 0.0 and absent.grasp_rim_reach == 0.0
     assert _z(height, color, 70, 56, 0.0, absent) == grasp_z(height, 70, 56, PRIMS)
 
 
 @pytest.mark.parametrize("key, value", [("grasp_rim_depth", -0.01), ("grasp_rim_step", "high"),
                                         ("grasp_rim_reach", float("nan")), ("grasp_rim_wall", True)])
-def test_malformed_rim_keys_are_named(tmp_path, key, value):
+def test_malformed_rim_keys_are_named(load_edited, key, value):
     with pytest.raises(ValueError, match=f"primitives.{key}"):
-        _load(tmp_path, lambda prims: prims.__setitem__(key, value))
+        load_edited(lambda prims: prims.__setitem__(key, value))
 
 
 def test_grasp_z_at_reads_the_heightmap():

@@ -6,7 +6,6 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-import yaml
 
 from pg_core import geometry
 from pg_core.action_geometry import grasp_z, grasp_z_for_height, palm_clear_z
@@ -19,14 +18,6 @@ RES = 0.002
 
 def _z(height, row, col, yaw, prims=PRIMS):
     return grasp_z(height, row, col, prims, yaw=yaw, resolution=RES)
-
-
-def _load(tmp_path, edit):
-    raw = yaml.safe_load(geometry.DEFAULT_CONFIG.read_text())
-    edit(raw["primitives"])
-    path = tmp_path / "ws.yaml"
-    path.write_text(yaml.safe_dump(raw))
-    return geometry.load(path)
 
 
 def test_the_palm_comes_from_the_gripper_and_the_clearance_from_the_config():
@@ -71,8 +62,8 @@ def test_cells_beyond_the_map_are_left_out():
     assert palm_clear_z(np.zeros((5, 5)), 2, 2, 0.0, RES, OFF) is None
 
 
-def test_absent_key_turns_the_rule_off(tmp_path):
-    absent = _load(tmp_path, lambda prims: prims.pop("grasp_palm_clearance")).primitives
+def test_absent_key_turns_the_rule_off(load_edited):
+    absent = load_edited(lambda prims: prims.pop("grasp_palm_clearance")).primitives
     assert absent.grasp_palm_clearance is None
     assert absent.palm_footprint == (0.11, 0.05)  # still filled from the gripper
     height = np.zeros((100, 100))
@@ -82,9 +73,9 @@ def test_absent_key_turns_the_rule_off(tmp_path):
 
 
 @pytest.mark.parametrize("value", [-0.01, "high", float("nan"), True])
-def test_malformed_clearance_is_named(tmp_path, value):
+def test_malformed_clearance_is_named(load_edited, value):
     with pytest.raises(ValueError, match="primitives.grasp_palm_clearance"):
-        _load(tmp_path, lambda prims: prims.__setitem__("grasp_palm_clearance", value))
+        load_edited(lambda prims: prims.__setitem__("grasp_palm_clearance", value))
 
 
 def test_a_push_starting_beside_a_tall_object_keeps_the_palm_above_it():

@@ -159,7 +159,7 @@ class PrimitiveExecutor:
             if primitive == "grasp":
                 with self._squeeze():
                     driver.gripper(0.0)
-                    lift = plan.cartesian[1] if reached else self._from_here(driver, plan.cartesian[1])
+                    lift = plan.cartesian[1] if reached else self._from_here(driver, plan.cartesian[1:2])[0]
                     driver.follow(lift, [length / speed for length in plan.lengths[1]])
                     grasped = driver.opening() > g.closed_threshold
                     lifted = self._held_objects(driver) if grasped else []
@@ -170,8 +170,7 @@ class PrimitiveExecutor:
             else:
                 pushing, after = plan.cartesian[1:], plan.lengths[1:]
                 if not reached:  # a guarded descent stopped above the planned start: push from that height
-                    shift = driver.joints() - pushing[0][0]
-                    pushing = [[q + shift for q in path] for path in pushing]  # the stroke and the retreat
+                    pushing = self._from_here(driver, pushing)  # the stroke and the retreat
                 driver.follow(pushing[0], [length / self.prims_.push_speed for length in after[0]])
                 driver.follow(pushing[1], [length / speed for length in after[1]])
                 message = "pushed"
@@ -210,12 +209,13 @@ class PrimitiveExecutor:
         return lambda: driver.finger_lift_force(self.world_.objects, palm=palm) > limit
 
     @staticmethod
-    def _from_here(driver: ArmDriver, path: list[np.ndarray]) -> list[np.ndarray]:
-        """The planned path shifted to start at the joints where a guarded descent stopped: it keeps its length in
-        joint space, so a lift rises by the planned lift height from the stop point (approximately: the shift is
-        small next to the path)."""
-        shift = driver.joints() - path[0]
-        return [q + shift for q in path]
+    def _from_here(driver: ArmDriver, paths: list[list[np.ndarray]]) -> list[list[np.ndarray]]:
+        """The planned paths that follow the descent, shifted by where a guarded descent stopped (the joints now
+        minus the first path's start): each keeps its length in joint space, so a lift rises by the planned lift
+        height from the stop point and a push travels its planned length at the stop height (approximately: the
+        shift is small next to the paths)."""
+        shift = driver.joints() - paths[0][0]
+        return [[q + shift for q in path] for path in paths]
 
     def _held_objects(self, driver: ArmDriver) -> list[int]:
         """Body ids of the objects the closed jaw lifted (ground truth), sorted: every object touching a finger
