@@ -16,6 +16,10 @@ Per decision (the paper's loop at test time):
    tests (option forced_grasp, on by default; RulePipeline.forced_grasp), else to Q_g's argmax. A push that the
    push rules refuse is never made: when they refuse every push candidate they test (the edge guard: each would
    carry the target out of the workspace), the policy grasps as a spent budget does (option refused_push, on).
+   With option enclosed_grasp (off by default: no significant gain yet), a visible target inside a vessel (walls
+   2 cm above it on every side within 5 cm: a small object in a cup or a mug; pg_policy.decision.enclosure) is
+   grasped at once, as a spent budget does, instead of pushing the vessel, whose thin rim the closed fingers of a
+   push come down on, throwing the object out (docs/RESULTS.md, "Where the household losses are").
 The threshold and budget come from the grasp model's metadata (thresholds.grasp_q, push_budget), the rule list from
 its `rules` (or the switches of older models); PolicyOptions overrides any of them (pg_policy.policies.options). The
 policy reads them once into a LearnedConfig. What the policy must do whatever Q_g says (a spent push budget, a veto,
@@ -35,6 +39,7 @@ import numpy as np
 
 from pg_core.target_mask import MIN_VISIBLE_CELLS
 from pg_policy.decision.decision import Decision, decide, regions
+from pg_policy.decision.enclosure import target_enclosed
 from pg_policy.decision.rules.failed_grasps import suppress_near
 from pg_policy.decision.rules.registry import make_pipeline, model_rules
 from pg_policy.decision.rules.rule import RuleContext
@@ -76,8 +81,9 @@ class LearnedConfig:
     forced_grasp: a grasp the budget forces goes to the grasp rules' fallback tests (default on); refused_push: when
     the push rules refuse every push candidate, grasp as a spent budget does (default on); min_target_cells:
     the target is visible from this many cells (default pg_core.target_mask.MIN_VISIBLE_CELLS); hidden_pushes:
-    pushes in a row while the target is hidden before a grasp, 0: off (default HIDDEN_PUSHES). ValueError naming
-    the option for a value out of range."""
+    pushes in a row while the target is hidden before a grasp, 0: off (default HIDDEN_PUSHES); enclosed_grasp: a
+    target inside a vessel is grasped as a spent budget does (default off). ValueError naming the option for a
+    value out of range."""
 
     threshold: float
     push_budget: int = 0
@@ -87,6 +93,7 @@ class LearnedConfig:
     refused_push: bool = True
     min_target_cells: int = MIN_VISIBLE_CELLS
     hidden_pushes: int = HIDDEN_PUSHES
+    enclosed_grasp: bool = False
 
     def __post_init__(self) -> None:
         if math.isnan(self.threshold):
@@ -105,7 +112,7 @@ class LearnedConfig:
         or a model without a threshold when none is given."""
         value = {name: option(name).parse(overrides.get(name)) for name in (
             "grasp_threshold", "push_budget", "q_window", "forced_grasp", "refused_push", "min_target_cells",
-            "hidden_pushes")}
+            "hidden_pushes", "enclosed_grasp")}
         threshold = value["grasp_threshold"]
         budget = value["push_budget"]
         if budget is None:
@@ -124,6 +131,7 @@ class LearnedConfig:
             refused_push=value["refused_push"] is not False,  # unset: on
             min_target_cells=MIN_VISIBLE_CELLS if value["min_target_cells"] is None else value["min_target_cells"],
             hidden_pushes=HIDDEN_PUSHES if value["hidden_pushes"] is None else value["hidden_pushes"],
+            enclosed_grasp=value["enclosed_grasp"] is True,  # unset: off
         )
 
 
@@ -201,11 +209,14 @@ class LearnedPolicy(PolicyBase):
         outcome = self.rules.apply(q, ctx)
         t3 = time.perf_counter()
         self._q = outcome.shown
-        spent = 0 < self.config.push_budget <= self.pushes_in_row
+        enclosed = self.config.enclosed_grasp and visible and target_enclosed(hm, target)
+        spent = 0 < self.config.push_budget <= self.pushes_in_row or enclosed
         refused = self.config.refused_push and outcome.vetoed["push"]  # no push passes the push rules
         force, self.last_note = (Force.GRASP if spent or refused else Force.NONE), ""
         if refused:
             self.last_note = "every push is refused by the push rules: grasp"
+        elif enclosed:
+            self.last_note = "target inside a vessel: grasp"
         if outcome.push_instead and not (spent or refused):
             force, self.last_note = Force.PUSH, outcome.note
         if not visible and self.pushes_in_row < self.config.hidden_pushes:
@@ -214,7 +225,8 @@ class LearnedPolicy(PolicyBase):
         if (spent or refused) and self.config.forced_grasp and outcome.vetoed["grasp"]:
             q_grasp, level = self.rules.forced_grasp(q_grasp, ctx)
             if level is not None:
-                why = "every push is refused by the push rules" if refused else "push budget spent"
+                why = ("every push is refused by the push rules" if refused else
+                       "target inside a vessel" if enclosed else "push budget spent")
                 self.last_note = f"{why}: grasp passing fallback test {level + 1} of the grasp rules"
         d = decide(q_grasp, outcome.q["push"], target, hm, self.prims, decision_threshold(force, self.threshold),
                    push_mask=ctx.push_region, grasp_mask=ctx.grasp_region)  # the regions the rules saw

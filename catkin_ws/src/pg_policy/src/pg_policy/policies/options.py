@@ -46,6 +46,9 @@ GENERAL = (
     PolicyOption("refused_push", "switch", "learned: when the push rules refuse every push candidate they test (e.g. "
                  "each would carry the target out of the workspace), grasp instead, by the grasp rules' fallback tests "
                  "when none passes them; off: make the best refused push", default="on"),
+    PolicyOption("enclosed_grasp", "switch", "learned: grasp at once (as a spent push budget does) when the target "
+                 "lies inside a vessel, walls standing over it on every side, instead of pushing the vessel; off: "
+                 "the nets and the budget decide", default="off"),
     PolicyOption("q_window", "switch", "learned: compute Q only around the target's grasp and push regions, exactly "
                  "(lite nets; other cells are -inf, so Q map images show the regions); off: the full maps",
                  default="on"),
