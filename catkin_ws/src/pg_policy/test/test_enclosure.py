@@ -1,11 +1,16 @@
 """pg_policy.decision.enclosure: a target inside a vessel's walls, and targets that are not."""
 
+from dataclasses import dataclass
+
 import numpy as np
 import pytest
 
 from pg_core.geometry import load
 from pg_core.heightmap import Heightmap
+from pg_core.palette import PALETTE
 from pg_policy.decision.enclosure import target_enclosed
+from pg_policy.policies.policy import PolicyOptions
+from pg_policy.policies.registry import make_policy
 
 GEO = load()
 RES = GEO.heightmap.resolution
@@ -26,7 +31,10 @@ def _scene(wall_radius_m: float | None, wall_height: float = 0.09, arc_deg: floa
         height[(r < wall_radius_m - 0.002) & (height == 0)] = 0.006  # the cup's floor
     brick = (np.abs(dx) <= 0.015) & (np.abs(dy) <= 0.008)
     height[brick] = brick_height
-    hm = Heightmap(np.zeros((H, W, 3), np.uint8), height, np.ones((H, W), bool), RES, GEO.workspace.bounds)
+    color = np.full((H, W, 3), (199, 178, 148), np.uint8)
+    color[height > 0.008] = PALETTE["blue"]
+    color[brick] = PALETTE["green"]
+    hm = Heightmap(color, height, np.ones((H, W), bool), RES, GEO.workspace.bounds)
     return hm, brick
 
 
@@ -46,3 +54,24 @@ def test_an_empty_or_misshaped_mask_is_handled():
     assert not target_enclosed(hm, np.zeros_like(brick))
     with pytest.raises(ValueError, match="differ"):
         target_enclosed(hm, brick[:-1])
+
+
+@dataclass
+class _Obs:
+    heightmap: Heightmap
+    target: str = "green"
+
+
+def test_the_learned_policy_grasps_an_enclosed_target_at_once_with_the_option_on(model_dir):
+    # Q_g below the threshold everywhere: with enclosed_grasp on the policy grasps the brick in the cup at once;
+    # off (the default), or with half the wall, it pushes
+    def act(wall_arc: float, **options: str):
+        pol = make_policy("learned", PolicyOptions(models=(model_dir,), overrides={"grasp_threshold": 1e9,
+                                                                                  **options}))
+        return pol, pol.act(_Obs(_scene(0.035, arc_deg=wall_arc)[0]))
+
+    pol, d = act(360, enclosed_grasp="on")
+    assert d.primitive == "grasp" and pol.last_note.startswith("target inside a vessel")
+    default, d = act(360)
+    assert not default.config.enclosed_grasp and d.primitive == "push"
+    assert act(180, enclosed_grasp="on")[1].primitive == "push"

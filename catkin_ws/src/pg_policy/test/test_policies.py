@@ -121,18 +121,6 @@ def test_heuristic_does_not_repeat_a_failed_grasp():
     assert not (second.primitive == "grasp" and second.rotation % 8 == first.rotation % 8 and same_place)
 
 
-@pytest.fixture(scope="module")
-def model_dir(tmp_path_factory):
-    from pg_policy.models.model_io import export_qnet
-    from pg_policy.models.nets import QNetConfig, build_qnet
-
-    out = tmp_path_factory.mktemp("models")
-    for i, role in enumerate(("grasp", "push")):
-        export_qnet(build_qnet(QNetConfig("lite", "none"), seed=i), out / f"{role}.pt",
-                    {"role": role, "thresholds": {"grasp_q": 1.8}})
-    return out
-
-
 def test_learned_policies_from_exported_files(model_dir):
     obs = _scene([(0.03, 0.02, CUBE, CUBE, "green"), (-0.1, 0.1, CUBE, CUBE, "blue")])
     pol = make_policy(str(model_dir))  # a directory with grasp.pt and push.pt runs `learned`
@@ -399,19 +387,3 @@ def test_a_push_the_edge_guard_refuses_is_never_made_the_policy_grasps_instead(m
     assert policy("edge_guard", refused_push="off").act(obs).primitive == "push"
     assert policy("push_landing").act(obs).primitive == "push"
 
-
-def test_a_target_inside_a_vessel_is_grasped_at_once_instead_of_pushing_the_vessel(model_dir):
-    # a 3 x 2 cm target 2 cm tall inside four 4.5 cm walls (a cup seen from above): with option enclosed_grasp on the
-    # policy grasps although Q_g is below the threshold; off (the default), or without the walls, it pushes
-    walls = [(0.0, 0.04, 0.09, 0.006, "blue"), (0.0, -0.04, 0.09, 0.006, "blue"),
-             (0.04, 0.0, 0.006, 0.09, "blue"), (-0.04, 0.0, 0.006, 0.09, "blue")]
-    obs = _scene([(0.0, 0.0, 0.03, 0.02, "green"), *walls])
-    green = np.all(obs.heightmap.color == PALETTE["green"], axis=-1)
-    obs.heightmap.height[green] = 0.02
-    pol = learned(model_dir, {"grasp_threshold": 1e9, "enclosed_grasp": "on"})
-    assert pol.act(obs).primitive == "grasp" and pol.pushes_in_row == 0
-    assert pol.last_note.startswith("target inside a vessel")
-    default = learned(model_dir, {"grasp_threshold": 1e9})
-    assert not default.config.enclosed_grasp and default.act(obs).primitive == "push"
-    open_obs = _scene([(0.0, 0.0, 0.03, 0.02, "green"), walls[0]])
-    assert learned(model_dir, {"grasp_threshold": 1e9, "enclosed_grasp": "on"}).act(open_obs).primitive == "push"
