@@ -2,8 +2,9 @@
 
 A small object inside a cup, a mug or a bowl cannot be grasped past the wall (the open jaw lands on the rim) and the
 push net then pushes the vessel: the closed fingers come down on its thin rim and the contact throws the object
-out (docs/RESULTS.md, "Household objects"). With the target enclosed, the learned policy grasps at once instead (the
-forced grasp of a spent push budget: the jaw straddles the wall and lifts the vessel or the target).
+out (docs/RESULTS.md, "Where the household losses are"). With option enclosed_grasp (pg_policy.policies.learned,
+off by default) the learned policy grasps an enclosed target at once instead (as a spent push budget does: the jaw
+straddles the wall and lifts the vessel or the target).
 
 Test on the heightmap (pg_core.heightmap: rows along y, columns along x, heights in metres above the table): from
 the target's centroid, along each of `sectors` directions, the first cell beyond the target's own cells within
