@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from test_policies import CUBE, _scene, learned, model_dir  # noqa: F401  (model_dir: the fixture)
+from test_policies import CUBE, _scene, learned
 
 from pg_core.heightmap import Heightmap
 from pg_policy.perception.target_memory import (
