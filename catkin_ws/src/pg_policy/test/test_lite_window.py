@@ -84,3 +84,16 @@ def test_policy_nets_use_the_layer_windows_for_lite_and_the_input_crop_on_reques
     for role in ("grasp", "push"):
         np.testing.assert_allclose(layered[role], full[role][:, 10:30, 20:50], atol=2e-5)
         np.testing.assert_allclose(cropped[role], full[role][:, 10:30, 20:50], atol=2e-5)
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="opt-in: no CUDA device on this machine")
+def test_the_windowed_evaluator_runs_where_the_net_does():
+    """A net on the GPU (`pushgrasp eval --device cuda`) has its windows computed on the GPU, equal to the CPU's."""
+    net = _net("lite-os8", "mask", seed=9)
+    color, depth, mask = _inputs(64, 64, seed=10)
+    with torch.no_grad():
+        cpu = LiteWindowQ(net).q(color, depth, mask, [0, 5], (8, 40, 16, 48))
+        gpu_net = torch.jit.script(net).to("cuda")
+        gpu = LiteWindowQ(gpu_net).q(color.cuda(), depth.cuda(), mask.cuda(), [0, 5], (8, 40, 16, 48))
+    assert gpu.device.type == "cuda"
+    torch.testing.assert_close(gpu.cpu(), cpu, atol=1e-4, rtol=0)

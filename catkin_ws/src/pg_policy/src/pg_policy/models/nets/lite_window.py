@@ -86,7 +86,8 @@ class LiteWindowQ:
             raise ValueError(f"windowed Q needs lite trunks, got {type(eager.color_trunk).__name__}")
         state = {k: v for k, v in net.state_dict().items() if k not in ("color_mean", "color_std")}  # constants
         eager.load_state_dict(state)
-        self.net: QNet = eager.eval()
+        device = next(iter(net.parameters()), torch.empty(0)).device  # the evaluator lives where `net` does
+        self.net: QNet = eager.to(device).eval()
         with torch.no_grad():
             self.trunks = [[_fold(s) for s in t.features] for t in (eager.color_trunk, eager.depth_trunk)]
         self.shift = int(eager.color_trunk.shift)
