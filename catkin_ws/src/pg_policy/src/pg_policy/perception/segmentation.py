@@ -31,8 +31,17 @@ out (shading on one object changes it), so objects told apart by lightness alone
 printed part of a real object names that part.
 
 Touching objects of the same height AND colour are told apart only by the gap of invalid or darker side cells the
-camera sees between them; where none is seen they share one label. Labels are 1..N, numbered in raster order of
-their first cell (deterministic for a given heightmap).
+camera sees between them; where none is seen they share one label. A click names the object centred on it
+(`centred_on`): when the clicked cell lies more than CENTRE_OFFSET_CELLS from its segment's centroid, that centroid
+lies CUT_CENTROID_DEPTH_CELLS or more inside the segment (not off it or on a wall: a ring, a box), and the segment
+is not long and thin (the standard deviations of its cells' positions along its minor and major axes in a ratio of
+at least CUT_MIN_ROUNDNESS; two blocks side by side: 0.5, a rod or a sliver clicked off its middle: far less), the
+segment is cut to its part that is point-symmetric about the click (a cell is kept when its mirror image through the
+clicked cell is in the segment too; on the grid, at most a cell's width off). The cut is kept only when what it
+leaves is one connected piece of at least CUT_REST_RATIO times its area (a look-alike block beside the clicked one,
+not the two ends of a curved object clicked in its middle), pieces under MIN_OBJECT_CELLS (the clicked object's own
+rim, off by a cell) staying with it. Labels are 1..N, numbered in raster order of their first cell (deterministic
+for a given heightmap).
 
 Raised: ValueError for a heightmap whose arrays disagree in shape or dtype, and (`segment_at`) for a cell outside
 the grid, invalid, on bare table, or on a sliver that belongs to no object.
@@ -54,6 +63,10 @@ MIN_SEED_CELLS = 12  # seed components smaller than this (cells; 0.5 cm^2 at 2 m
 MIN_OBJECT_CELLS = 20  # labels smaller than this (cells) are speckle and dropped to 0
 SNAP_RADIUS_CELLS = 2  # `segment_at` on an unlabelled object cell takes the object within this many cells
 SEGMENT_HEIGHT_M = 0.004  # cells higher than this (m above the table) hold an object; 8 mm left flat utensils out
+CENTRE_OFFSET_CELLS = 5  # `centred_on`: a click this far (1 cm) or nearer to its segment's centroid names it whole
+CUT_CENTROID_DEPTH_CELLS = 3.0  # `centred_on`: the segment's centroid lies this far (cells) inside it, or no cut
+CUT_MIN_ROUNDNESS = 0.4  # `centred_on`: only a segment this round (minor / major spread) or rounder is cut
+CUT_REST_RATIO = 0.5  # `centred_on`: the cut-away rest is one piece of at least this fraction of the kept part
 EDGE_LEVELS = 255  # edge strengths are quantised to 0..EDGE_LEVELS for the watershed (uint8)
 
 
@@ -244,3 +257,35 @@ def _own_piece(hm: Heightmap, segment: np.ndarray, row: int, col: int) -> np.nda
     if float(np.linalg.norm(np.median(chroma[piece], axis=0) - np.median(chroma[rest], axis=0))) < COLOUR_EDGE:
         return None
     return piece
+
+
+def centred_on(segment: np.ndarray, row: int, col: int) -> np.ndarray:
+    """(H, W) bool: the part of the (H, W) bool `segment` centred on its clicked cell (row, col) (module docstring),
+    or `segment` itself when the click is near its centroid, the centroid lies off it, or the cut leaves no single
+    object-sized piece. Raises ValueError when (row, col) is not a cell of `segment`."""
+    segment = np.asarray(segment, bool)
+    if not (0 <= row < segment.shape[0] and 0 <= col < segment.shape[1]) or not segment[row, col]:
+        raise ValueError(f"cell (row {row}, col {col}) is not in the segment")
+    rr, cc = np.nonzero(segment)
+    cr, cm = float(rr.mean()), float(cc.mean())
+    if np.hypot(cr - row, cm - col) <= CENTRE_OFFSET_CELLS:
+        return segment
+    inside = cv2.distanceTransform(np.pad(segment, 1).astype(np.uint8), cv2.DIST_L2, 3)[1:-1, 1:-1]
+    if inside[int(round(cr)), int(round(cm))] < CUT_CENTROID_DEPTH_CELLS:
+        return segment  # the centroid lies off the segment or on a wall of it: a hollow or curved object
+    spread = np.linalg.eigvalsh(np.cov(np.stack([rr, cc]).astype(float)))  # ascending: minor, major
+    if spread[0] < CUT_MIN_ROUNDNESS**2 * spread[1]:
+        return segment  # a long thin segment (a rod, a sliver) clicked off its middle is one object
+    mr, mc = 2 * row - rr, 2 * col - cc  # each cell's mirror image through the clicked cell
+    inside = (mr >= 0) & (mr < segment.shape[0]) & (mc >= 0) & (mc < segment.shape[1])
+    symmetric = np.zeros_like(segment)
+    symmetric[rr[inside], cc[inside]] = segment[mr[inside], mc[inside]]
+    _, parts = cv2.connectedComponents(symmetric.astype(np.uint8), connectivity=8)
+    part = parts == parts[row, col]
+    _, rest_parts = cv2.connectedComponents((segment & ~part).astype(np.uint8), connectivity=8)
+    sizes = np.bincount(rest_parts.ravel())
+    sizes[0] = 0  # the background
+    pieces = np.nonzero(sizes >= MIN_OBJECT_CELLS)[0]  # smaller ones are the clicked object's own rim cells
+    if part.sum() < MIN_OBJECT_CELLS or len(pieces) != 1 or sizes[pieces[0]] < CUT_REST_RATIO * part.sum():
+        return segment
+    return segment & (rest_parts != pieces[0])

@@ -1,0 +1,72 @@
+"""pg_policy.perception.segmentation.centred_on: a click names the object centred on it. Two blocks of one colour
+and height touching side by side are one segment; a click at the centre of one of them names that block alone,
+while a click near the middle of a single object, off the middle of a long thin one, on an object whose centroid
+lies off it, or in the middle of a curved one keeps the segment whole."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pg_policy.perception.segmentation import centred_on
+
+SIDE = 22  # cells: a 45 mm block at 2 mm per cell
+
+
+def _iou(a: np.ndarray, b: np.ndarray) -> float:
+    return float((a & b).sum() / max((a | b).sum(), 1))
+
+
+def _blocks(*origins: tuple[int, int], size: tuple[int, int] = (SIDE, SIDE)) -> tuple[np.ndarray, list[np.ndarray]]:
+    """(segment, the blocks' own masks) of axis-aligned blocks with top-left cells `origins` on a 100 x 100 grid."""
+    blocks = []
+    for r, c in origins:
+        m = np.zeros((100, 100), bool)
+        m[r : r + size[0], c : c + size[1]] = True
+        blocks.append(m)
+    return np.logical_or.reduce(blocks), blocks
+
+
+@pytest.mark.parametrize("which", [0, 1])
+def test_a_click_at_one_of_two_touching_blocks_names_that_block(which):
+    segment, blocks = _blocks((30, 20), (30, 20 + SIDE))  # side by side: one segment of 22 x 44 cells
+    rows, cols = np.nonzero(blocks[which])
+    mask = centred_on(segment, int(rows.mean()), int(cols.mean()))
+    assert _iou(mask, blocks[which]) >= 0.9 and (mask & blocks[1 - which]).sum() <= SIDE  # one column at most
+    assert not np.array_equal(mask, segment)
+
+
+def test_a_long_thin_segment_clicked_off_its_middle_is_kept_whole():
+    segment, blocks = _blocks((10, 5), (10, 5 + SIDE), (10, 5 + 2 * SIDE))  # three in a row: 1 x 3, like a rod
+    rows, cols = np.nonzero(blocks[0])
+    assert np.array_equal(centred_on(segment, int(rows.mean()), int(cols.mean())), segment)
+    rod, _ = _blocks((50, 10), size=(6, 80))
+    assert np.array_equal(centred_on(rod, 52, 20), rod)
+
+
+def test_a_click_near_the_middle_of_one_object_keeps_it_whole():
+    segment, _ = _blocks((30, 20), size=(20, 60))
+    assert np.array_equal(centred_on(segment, 40, 50), segment)  # the centroid (39.5, 49.5)
+    assert np.array_equal(centred_on(segment, 42, 46), segment)  # 4 cells off: within CENTRE_OFFSET_CELLS
+
+
+def test_an_object_whose_centroid_lies_off_it_is_kept_whole():
+    arch, _ = _blocks((20, 20), size=(40, 40))
+    arch[20:45, 32:48] = False  # a U: the centroid falls in the notch
+    assert np.array_equal(centred_on(arch, 50, 26), arch)
+
+
+def test_a_curved_object_clicked_in_its_middle_is_kept_whole():
+    rr, cc = np.mgrid[:100, :100]
+    radius = np.hypot(rr - 80, cc - 50)
+    banana = (radius > 35) & (radius < 45) & (rr < 75)  # an arc: the centroid lies on it, off its middle
+    mid_r = int(np.nonzero(banana[:, 50])[0].mean())
+    assert np.array_equal(centred_on(banana, mid_r, 50), banana)  # the two ends are two pieces: no cut
+
+
+def test_a_cell_outside_the_segment_is_refused():
+    segment, _ = _blocks((30, 20))
+    with pytest.raises(ValueError, match="not in the segment"):
+        centred_on(segment, 0, 0)
+    with pytest.raises(ValueError, match="not in the segment"):
+        centred_on(segment, 200, 5)
