@@ -70,3 +70,24 @@ def test_a_cell_outside_the_segment_is_refused():
         centred_on(segment, 0, 0)
     with pytest.raises(ValueError, match="not in the segment"):
         centred_on(segment, 200, 5)
+
+
+@pytest.mark.parametrize(("scene", "seed"), [("packed/case09", 5001), ("packed/case07", 5003)])
+def test_a_point_at_a_packed_block_names_it_where_a_look_alike_touches_it(scene, seed):
+    """Packed scenes repainted so that colours repeat (`pushgrasp eval --colours repeated`): the target touches a
+    block of its colour and height, both in one segment; the point at its centre (as `--target-by point` clicks)
+    names the target alone."""
+    from pg_core.geometry import load
+    from pg_learning.environment.sim_env import SimEnv
+    from pg_learning.evaluation.runner import DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW, trial_scene
+    from pg_learning.evaluation.target_by import centre_point
+    from pg_policy.perception.segmentation import segment_at, segment_objects
+    from pg_policy.target_loop.target_spec import first_mask, point_cell
+
+    with SimEnv(load(), colours="repeated") as env:
+        obs = env.reset(trial_scene(scene, seed, DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW), seed)
+    hm, truth = obs.heightmap, obs.truth_target
+    point = centre_point(hm, truth)
+    segment = segment_at(hm, *point_cell(hm, point), segment_objects(hm))
+    assert _iou(segment, truth) < 0.5  # the look-alike shares the target's segment
+    assert _iou(first_mask(hm, point), truth) >= 0.8
