@@ -26,10 +26,12 @@ def test_options_override_the_model_and_are_parsed_by_their_declaration():
     c = LearnedConfig.from_model(META, {"grasp_threshold": "0.5", "push_budget": 0, "rules": "none",
                                         "edge_guard": "on", "q_window": "off", "forced_grasp": False,
                                         "refused_push": "off", "min_target_cells": "5", "hidden_pushes": 0,
-                                        "enclosed_grasp": "on"})
+                                        "enclosed_grasp": "on", "unsure_grasp": "off"})
     assert (c.threshold, c.push_budget, c.rules, c.q_window, c.forced_grasp, c.refused_push, c.min_target_cells,
-            c.hidden_pushes, c.enclosed_grasp) == (0.5, 0, ("edge_guard",), False, False, False, 5, 0, True)
+            c.hidden_pushes, c.enclosed_grasp, c.unsure_grasp) == (0.5, 0, ("edge_guard",), False, False, False, 5, 0,
+                                                                    True, False)
     assert not LearnedConfig.from_model(META, {}).enclosed_grasp  # unset: off
+    assert LearnedConfig.from_model(META, {}).unsure_grasp  # unset: on
     assert LearnedConfig.from_model(META, {"push_budget": None, "q_window": "auto"}).q_window  # unset
     with pytest.raises(AttributeError):
         c.threshold = 1.0  # type: ignore[misc]  # frozen

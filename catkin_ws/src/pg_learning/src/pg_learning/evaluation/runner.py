@@ -175,7 +175,8 @@ def _observed(ep: Episode, env: EvalEnv, obs: Any, target: TrialTarget | None = 
     outside = truth() if callable(truth) else None
     if target is not None:
         mask = target.observe(hm, obs.truth_target)
-        return PolicyObservation(hm, obs.target, ep.observe(hm, mask, outside), mask=mask)
+        return PolicyObservation(hm, obs.target, ep.observe(hm, mask, outside), mask=mask,
+                                 unsure=bool(target.view.get("unsure", False)))
     search = ep.observe(hm, target_mask(hm.color, hm.valid, obs.target), outside)
     if is_dataclass(obs) and "search" in {f.name for f in fields(obs)}:
         return replace(obs, search=search)

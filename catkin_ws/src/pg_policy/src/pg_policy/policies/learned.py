@@ -82,8 +82,9 @@ class LearnedConfig:
     the push rules refuse every push candidate, grasp as a spent budget does (default on); min_target_cells:
     the target is visible from this many cells (default pg_core.target_mask.MIN_VISIBLE_CELLS); hidden_pushes:
     pushes in a row while the target is hidden before a grasp, 0: off (default HIDDEN_PUSHES); enclosed_grasp: a
-    target inside a vessel is grasped as a spent budget does (default off). ValueError naming the option for a
-    value out of range."""
+    target inside a vessel is grasped as a spent budget does (default off); unsure_grasp: off = while a tracked
+    target's track is in doubt (PolicyObservation.unsure), push instead of grasping until the push budget is spent
+    (default on: grasp as Q_g says). ValueError naming the option for a value out of range."""
 
     threshold: float
     push_budget: int = 0
@@ -94,6 +95,7 @@ class LearnedConfig:
     min_target_cells: int = MIN_VISIBLE_CELLS
     hidden_pushes: int = HIDDEN_PUSHES
     enclosed_grasp: bool = False
+    unsure_grasp: bool = True
 
     def __post_init__(self) -> None:
         if math.isnan(self.threshold):
@@ -112,7 +114,7 @@ class LearnedConfig:
         or a model without a threshold when none is given."""
         value = {name: option(name).parse(overrides.get(name)) for name in (
             "grasp_threshold", "push_budget", "q_window", "forced_grasp", "refused_push", "min_target_cells",
-            "hidden_pushes", "enclosed_grasp")}
+            "hidden_pushes", "enclosed_grasp", "unsure_grasp")}
         threshold = value["grasp_threshold"]
         budget = value["push_budget"]
         if budget is None:
@@ -132,6 +134,7 @@ class LearnedConfig:
             min_target_cells=MIN_VISIBLE_CELLS if value["min_target_cells"] is None else value["min_target_cells"],
             hidden_pushes=HIDDEN_PUSHES if value["hidden_pushes"] is None else value["hidden_pushes"],
             enclosed_grasp=value["enclosed_grasp"] is True,  # unset: off
+            unsure_grasp=value["unsure_grasp"] is not False,  # unset: on
         )
 
 
@@ -221,6 +224,8 @@ class LearnedPolicy(PolicyBase):
             force, self.last_note = Force.PUSH, outcome.note
         if not visible and self.pushes_in_row < self.config.hidden_pushes:
             force = Force.PUSH
+        elif visible and not self.config.unsure_grasp and getattr(obs, "unsure", False) and not (spent or refused):
+            force, self.last_note = Force.PUSH, "target track unsure: push"
         q_grasp = outcome.q["grasp"]
         if (spent or refused) and self.config.forced_grasp and outcome.vetoed["grasp"]:
             q_grasp, level = self.rules.forced_grasp(q_grasp, ctx)

@@ -49,6 +49,9 @@ GENERAL = (
     PolicyOption("enclosed_grasp", "switch", "learned: grasp at once (as a spent push budget does) when the target "
                  "lies inside a vessel, walls standing over it on every side, instead of pushing the vessel; off: "
                  "the nets and the budget decide", default="off"),
+    PolicyOption("unsure_grasp", "switch", "learned: grasp a target named by a point or a mask while its track is "
+                 "in doubt (the tracker may follow a look-alike); off: push instead until the push budget is spent "
+                 "or the track is sure again", default="on"),
     PolicyOption("q_window", "switch", "learned: compute Q only around the target's grasp and push regions, exactly "
                  "(lite nets; other cells are -inf, so Q map images show the regions); off: the full maps",
                  default="on"),

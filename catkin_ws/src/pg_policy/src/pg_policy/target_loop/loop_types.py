@@ -139,9 +139,11 @@ class PolicyObservation:
     """What pg_policy.policies.registry act on: the heightmap, the target's colour name, within a call the target
     memory (pg_policy.perception.target_memory.TargetSearch; None: no memory, e.g. /pg/infer) and the target's
     (H, W) bool mask when the loop found it otherwise than by colour (a point or a mask request, tracked:
-    pg_policy.target_loop.target_spec; None: the policy finds the target by `target`'s colour)."""
+    pg_policy.target_loop.target_spec; None: the policy finds the target by `target`'s colour), and whether that
+    mask's track is in doubt (`unsure`: the tracker may follow another object; always False for colours)."""
 
     heightmap: Heightmap
     target: str
     search: TargetSearch | None = None
     mask: np.ndarray | None = None
+    unsure: bool = False

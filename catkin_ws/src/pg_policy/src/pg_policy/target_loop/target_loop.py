@@ -175,7 +175,8 @@ class TargetLoop:
             if ep.over():
                 return None
         follower = self._follower
-        obs = PolicyObservation(shm.heightmap, target, search, mask if follower is not None else None)
+        obs = PolicyObservation(shm.heightmap, target, search, mask if follower is not None else None,
+                                unsure=follower is not None and follower.unsure)
         decision = self.policy.act(obs)
         self.last_q = self.policy.q_maps()
         note = str(getattr(self.policy, "last_note", ""))
