@@ -111,7 +111,7 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
 
     from pg_learning.environment.sim_env import SimEnv
-    from pg_learning.evaluation.runner import run_trial
+    from pg_learning.evaluation.runner import DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW, run_trial, trial_scene
     from pg_policy.policies.registry import make_policy
     from pg_policy.target_loop.episode import Limits, check_eval_seed
 
@@ -119,8 +119,9 @@ def main(argv: list[str] | None = None) -> None:
         check_eval_seed(args.seed)
     with SimEnv(colours=args.colours) as env:
         watcher = Watcher(env, make_policy(args.policy))
-        rec = run_trial(env, watcher.policy, args.scenes, args.seed, Limits(max_actions=args.max_actions),
-                        target_by=args.target_by)
+        scene = trial_scene(args.scenes, args.seed, DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW)  # as `pushgrasp eval`
+        rec = run_trial(env, watcher.policy, scene, args.seed, Limits(max_actions=args.max_actions),
+                        scene_name=args.scenes, target_by=args.target_by)
         geo = env.geometry
     title = (f"{args.scenes} seed {args.seed}, colours {args.colours}, target by {args.target_by}: "
              f"{rec.termination} (green dashed: tracked, red: truth)")
