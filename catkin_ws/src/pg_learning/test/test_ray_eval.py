@@ -121,7 +121,7 @@ def test_workers_must_be_positive_without_a_cluster(tmp_path, capsys):
 
 
 def test_model_files_travel_to_nodes_that_lack_them(tmp_path):
-    from pg_learning.evaluation.runner import local_models, model_blobs
+    from pg_learning.evaluation.trial_workers import local_models, model_blobs
     from pg_policy.policies.policy import PolicyOptions
 
     (tmp_path / "grasp.pt").write_bytes(b"g" * 10)

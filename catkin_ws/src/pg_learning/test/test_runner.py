@@ -183,6 +183,6 @@ def test_cli_heuristic_on_packed_case01(tmp_path, capsys):
 
 @pytest.mark.parametrize(("workers", "cpus", "threads"), [(2, 2, 1), (16, 16, 1), (4, 16, 4), (3, 2, 1), (0, 8, 8)])
 def test_eval_workers_share_the_cpus_out(workers, cpus, threads):
-    from pg_learning.evaluation.runner import worker_threads
+    from pg_learning.evaluation.trial_workers import worker_threads
 
     assert worker_threads(workers, cpus) == threads

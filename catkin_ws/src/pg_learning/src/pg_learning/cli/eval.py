@@ -112,7 +112,8 @@ def _run(args: argparse.Namespace) -> int:
     from pg_learning.evaluation.errors import reason_lines
     from pg_learning.evaluation.journal import TrialJournal, file_digests
     from pg_learning.evaluation.report import git_commit, write_results
-    from pg_learning.evaluation.runner import EvalPlan, Limits, check_seed, expand_scenes, run_trials
+    from pg_learning.evaluation.runner import EvalPlan, Limits, check_seed, expand_scenes
+    from pg_learning.evaluation.trial_workers import run_trials
     from pg_policy.decision.rules.pipeline import RulePipeline
     from pg_policy.models.device import check_device
     from pg_policy.policies.policy import PolicyOptions
