@@ -11,7 +11,7 @@ from scipy import ndimage
 
 from pg_core.geometry import load
 from pg_core.heightmap import Heightmap
-from pg_policy.perception.segmentation import SEGMENT_HEIGHT_M, segment_at, segment_objects
+from pg_policy.perception.segmentation import SEGMENT_HEIGHT_M, object_cells, segment_at, segment_objects
 
 GEO = load()
 SCENES = [("packed/case01", 0), ("packed/case05", 0), ("random-10", 1000000), ("random-10", 1000001),
@@ -71,7 +71,7 @@ def test_labels_are_deterministic_and_zero_off_objects(scenes):
     labels = segment_objects(hm)
     assert labels.dtype == np.int32 and labels.shape == hm.height.shape
     assert np.array_equal(labels, segment_objects(hm))
-    low = ~hm.valid | (hm.height <= SEGMENT_HEIGHT_M)
+    low = ~object_cells(hm)  # table, unseen, and thin cells of the table's colour
     for label in range(1, labels.max() + 1):  # off objects only inside an outline of the label (a vessel's floor)
         part = labels == label
         assert not (part & low & ~ndimage.binary_fill_holes(part & ~low)).any(), label
@@ -113,6 +113,24 @@ def test_a_face_steep_in_the_middle_is_one_object():
     labels = segment_objects(Heightmap(color, height, np.ones((224, 224), bool), GEO.heightmap.resolution,
                                        GEO.workspace.bounds))
     assert labels.max() == 1 and (labels[100:120, 90:116] == 1).mean() >= 0.95
+
+
+@pytest.mark.parametrize("rgb, found", [((60, 150, 60), True), ((200, 200, 200), False), ((185, 185, 185), False)],
+                         ids=["coloured", "table-coloured", "table-shaded"])
+def test_a_thin_slab_lying_flat_is_an_object_when_its_colour_stands_out_from_the_table(rgb, found):
+    """A 4 x 6 cm slab 3.5 mm high (under SEGMENT_HEIGHT_M, over THIN_HEIGHT_M) on a grey table: seen by its colour;
+    cells of the table's colour at that height (depth noise, a shadowed patch) stay table."""
+    height = np.zeros((224, 224), np.float32)
+    color = np.full((224, 224, 3), 200, np.uint8)
+    height[100:120, 90:120], color[100:120, 90:120] = 0.0035, rgb
+    hm = Heightmap(color, height, np.ones((224, 224), bool), GEO.heightmap.resolution, GEO.workspace.bounds)
+    assert SEGMENT_HEIGHT_M > 0.0035
+    if found:
+        assert segment_objects(hm).max() == 1 and segment_at(hm, 110, 105).sum() == 600
+    else:
+        assert segment_objects(hm).max() == 0
+        with pytest.raises(ValueError, match="bare table"):
+            segment_at(hm, 110, 105)
 
 
 @pytest.mark.parametrize("row, col, why", [(10, 10, "bare table"), (-1, 95, "outside"), (107, 224, "outside"),

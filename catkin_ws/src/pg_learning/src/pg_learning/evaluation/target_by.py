@@ -56,7 +56,7 @@ def iou(a: np.ndarray, b: np.ndarray) -> float | None:
 
 def centre_point(hm: Heightmap, truth: np.ndarray) -> PointTarget:
     """The PointTarget at the centre of the non-empty (H, W) bool mask `truth` (module docstring: ``point``): its
-    centroid when that cell holds an object of `truth` (segmentation.object_cells: a thin part 4 mm high or less is
+    centroid when that cell holds an object of `truth` (segmentation.object_cells: a thin part of the table's colour is
     no place to click) CLICK_MARGIN_CELLS or more inside its border, else the innermost such cell (farthest from
     the border; of those, the nearest to the centroid): the middle of the target's largest visible piece, not the
     rim of a piece beside the object that hides its middle. Any cell of `truth` counts when none holds an object."""

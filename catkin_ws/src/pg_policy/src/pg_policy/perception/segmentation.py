@@ -3,7 +3,8 @@
 Contract. Input: a pg_core.heightmap.Heightmap in `world` ((H, W) cells, rows along y, columns along x; height in
 metres above the workspace zmin; colour (H, W, 3) uint8 RGB; valid (H, W) bool). Object cells are valid cells higher
 than SEGMENT_HEIGHT_M (4 mm, half of pg_core.heightmap.OBJECT_HEIGHT_M: a fork, knife or pair of scissors lying
-flat stands 4-7 mm); every other cell is table (or unseen) and carries label 0.
+flat stands 4-7 mm), and valid cells higher than THIN_HEIGHT_M (2 mm) whose colour stands out from the table's (a
+card or a thin slab lying flat; `object_cells`); every other cell is table (or unseen) and carries label 0.
 
 Method (OpenCV and scipy.ndimage):
 1. edges: a cell lies on an edge when, within its 3 x 3 neighbourhood, the height bends by at least DEPTH_EDGE_M
@@ -63,6 +64,9 @@ MIN_SEED_CELLS = 12  # seed components smaller than this (cells; 0.5 cm^2 at 2 m
 MIN_OBJECT_CELLS = 20  # labels smaller than this (cells) are speckle and dropped to 0
 SNAP_RADIUS_CELLS = 2  # `segment_at` on an unlabelled object cell takes the object within this many cells
 SEGMENT_HEIGHT_M = 0.004  # cells higher than this (m above the table) hold an object; 8 mm left flat utensils out
+THIN_HEIGHT_M = 0.002  # cells higher than this hold an object when their colour stands out from the table's
+TABLE_HEIGHT_M = 0.001  # cells this low or lower are table: their median colour is the table's
+MIN_TABLE_CELLS = 100  # fewer table cells than this in view: the table's colour is unknown (thin cells left out)
 CENTRE_OFFSET_CELLS = 5  # `centred_on`: a click this far (1 cm) or nearer to its segment's centroid names it whole
 CUT_CENTROID_DEPTH_CELLS = 3.0  # `centred_on`: the segment's centroid lies this far (cells) inside it, or no cut
 CUT_MIN_ROUNDNESS = 0.4  # `centred_on`: only a segment this round (minor / major spread) or rounder is cut
@@ -84,9 +88,19 @@ def _check(hm: Heightmap) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def object_cells(hm: Heightmap) -> np.ndarray:
-    """(H, W) bool: the valid cells higher than SEGMENT_HEIGHT_M (the cells that hold an object)."""
-    height, _, valid = _check(hm)
-    return valid & (height > SEGMENT_HEIGHT_M)
+    """(H, W) bool: the cells that hold an object: the valid cells higher than SEGMENT_HEIGHT_M, and the valid
+    cells higher than THIN_HEIGHT_M whose colour lies COLOUR_EDGE or more (weighted Lab, as the edges) from the
+    table's, the median colour of the valid cells no higher than TABLE_HEIGHT_M (at least MIN_TABLE_CELLS of them):
+    a card, a lid or a thin slab lying flat stands 2-4 mm and is told from the table by its colour."""
+    height, color, valid = _check(hm)
+    objects = valid & (height > SEGMENT_HEIGHT_M)
+    thin = valid & (height > THIN_HEIGHT_M) & ~objects
+    table = valid & (height <= TABLE_HEIGHT_M)
+    if thin.any() and int(table.sum()) >= MIN_TABLE_CELLS:
+        lab = lab_image(color)
+        weights = np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
+        objects[thin] = np.linalg.norm((lab[thin] - np.median(lab[table], axis=0)) * weights, axis=-1) >= COLOUR_EDGE
+    return objects
 
 
 def lab_image(color: np.ndarray) -> np.ndarray:
