@@ -26,10 +26,12 @@ PIT_CHROMA_TOL = 0.03  # cells of one object: chromaticity r, g, b / (r + g + b)
 
 class RimPit(NamedTuple):
     """A pit along the jaw line: the floor (m, the centre cell) and the top of the lower wall the jaw straddles (m),
-    both in `world` z."""
+    both in `world` z; `wall`: the (row, col) cell where the line meets the nearer wall (its first cell within
+    half a `grasp_rim_step` of the wall's top)."""
 
     floor: float
     rim: float
+    wall: tuple[int, int] | None = None
 
 
 def local_max(height: np.ndarray, row: int, col: int, half: int) -> float:
@@ -102,7 +104,7 @@ def rim_pit(height: np.ndarray, row: int, col: int, yaw: float, resolution: floa
       side falls more than s / 2 below it, that side stays on the same object over the whole reach and the cell
       lies s / 2 or more below the straight line from the wall's top to the reach's end on that side (the
       inside of a vessel curving down to its floor, not the flat top of a block leaning on another).
-    `rim`: the lower of the walls met; `floor`: the cell's height."""
+    `rim`: the lower of the walls met; `floor`: the cell's height; `wall`: the nearer wall's cell."""
     step, reach_m = prims.grasp_rim_step, prims.grasp_rim_reach
     if step <= 0 or reach_m <= 0:
         return None
@@ -145,7 +147,9 @@ def rim_pit(height: np.ndarray, row: int, col: int, yaw: float, resolution: floa
             chord = h[i, reach - 1] + (top - h[i, reach - 1]) * reach / (reach + jt + 1)
             if not same[i, :reach].all() or centre > chord - step / 2:
                 return None  # a leaning block's flat slope, or one ending on something else: not a vessel's inside
-    return RimPit(centre, min(side[0] for side in sides if side is not None))
+    i = min((i for i in (0, 1) if sides[i] is not None), key=lambda i: sides[i][1])  # type: ignore[index]
+    j = sides[i][1]  # type: ignore[index]
+    return RimPit(centre, min(side[0] for side in sides if side is not None), (int(rr[i, j]), int(cc[i, j])))
 
 
 @lru_cache(maxsize=64)

@@ -20,7 +20,11 @@ is in the shipped model's rule list.
 Rim grasps: a candidate cell of the target that lies in a pit along the closing line (pg_core.action_geometry.rim_pit:
 a bowl's, cup's or mug's floor or inner wall next to its wall) passes without the footprint and wall tests when no
 neighbour stands in a finger's sweep: the jaw straddles the wall, one finger inside the vessel (DESIGN.md section 4),
-so a vessel wider than the open jaw can still be grasped (the footprint test alone refuses every grasp of it).
+so a vessel wider than the open jaw can still be grasped (the footprint test alone refuses every grasp of it). The
+closing line must cross the wall within RIM_MAX_ANGLE_DEG of its normal (the slope of the heightmap, smoothed over
+WALL_BLUR_CELLS, where the line meets the nearer wall): probed on lone training bowls (`pushgrasp scene
+grasp-probe`'s rim and wall cells), grasps 0 and 45 degrees off the wall's normal hold 31 and 31 of 32, 67.5
+degrees off 8 of 32 and 90 degrees off none: the pads meet the wall obliquely and it slides out between them.
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from pg_core.action_geometry import grasp_z_at, rim_pit
@@ -54,6 +59,25 @@ DEFAULT_VARIANT = "jaw-walls"  # the rule's variant when its entry names none
 CENTRE_TOL_M = 0.01  # the learned cell may sit this far from the pad-centred line along the closing axis
 WALL_WINDOW_M = 0.002  # the ends of the target's extent between the pads searched for its wall height (one cell)
 WALL_TOL_M = 0.002  # the wall must stand this far above the fingertips
+RIM_MAX_ANGLE_DEG = 56.25  # a rim grasp's closing line within this of the wall's normal (between 2 and 3 rotations)
+WALL_BLUR_CELLS = 1.5  # the heightmap is smoothed by a Gaussian of this sigma (cells) for the wall's normal
+MIN_WALL_SLOPE = 0.1  # a smoothed slope (m/m) under this gives the wall no direction (the angle test is skipped)
+
+
+def wall_normal(height: np.ndarray, cell: tuple[int, int], resolution: float) -> np.ndarray | None:
+    """The unit (x, y) direction in which the (H, W) heightmap `height` (m; rows along y, columns along x,
+    `resolution` m per cell) rises at `cell` (row, col), smoothed by a Gaussian of WALL_BLUR_CELLS; None where the
+    smoothed slope is under MIN_WALL_SLOPE (no direction to speak of)."""
+    r, c = cell
+    k = int(math.ceil(3 * WALL_BLUR_CELLS)) + 1
+    rows, cols = np.asarray(height).shape
+    r0, r1, c0, c1 = max(r - k, 0), min(r + k + 1, rows), max(c - k, 0), min(c + k + 1, cols)
+    window = cv2.GaussianBlur(np.asarray(height, np.float32)[r0:r1, c0:c1], (0, 0), WALL_BLUR_CELLS,
+                              borderType=cv2.BORDER_REPLICATE)
+    gy, gx = np.gradient(window)  # m per cell along rows (y) and columns (x)
+    g = np.array([float(gx[r - r0, c - c0]), float(gy[r - r0, c - c0])])
+    norm = float(np.linalg.norm(g))
+    return None if norm / resolution < MIN_WALL_SLOPE else g / norm
 
 
 class JawGraspCheck(Rule):
@@ -165,6 +189,10 @@ class JawGraspCheck(Rule):
         pit = rim_pit(hm.height, row, col, yaw, hm.resolution, self.prims, float(hm.bounds[2, 0]), color=hm.color)
         if pit is None:
             return False
+        normal = wall_normal(hm.height, pit.wall, hm.resolution) if pit.wall is not None else None
+        if normal is not None and abs(float(normal @ np.array([math.cos(yaw), math.sin(yaw)]))) < math.cos(
+                math.radians(RIM_MAX_ANGLE_DEG)):
+            return False  # the pads would meet the wall obliquely (module docstring)
         if not clearance or not len(o_xy):
             return True
         p = self.jaw.p
