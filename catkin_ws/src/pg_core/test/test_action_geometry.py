@@ -128,6 +128,8 @@ def test_a_bowl_floor_next_to_the_wall_grasps_below_the_rim_above_the_floor(yaw)
     assert 0.009 + PRIMS.grasp_rim_clearance <= z < 0.05
     pit = rim_pit(height, row, col, yaw, RES, PRIMS, color=color)
     assert pit is not None and pit.floor == pytest.approx(0.009) and pit.rim == pytest.approx(0.05)
+    wr, wc = pit.wall  # the nearer wall's cell: on the line, towards -x (the wall 23 mm from the cell), high up
+    assert wr == row + round((wc - col) * math.tan(yaw)) and wc < col - 5 and height[wr, wc] >= 0.05 - 0.005
 
 
 def test_a_shallow_pit_keeps_the_fingertips_above_the_floor():

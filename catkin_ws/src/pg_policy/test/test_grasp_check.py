@@ -193,3 +193,25 @@ def test_a_rim_grasp_with_a_neighbour_in_a_fingers_sweep_is_refused():
     hm, target = _bowl(neighbour=True)
     check = JawGraspCheck.from_arg(GEO, "jaw-walls")
     assert not check.passes(hm, target, ALONG_X, C, C + 25)
+
+
+@pytest.mark.parametrize("rotation, passes", [(0, True), (1, True), (2, True), (3, False)])
+def test_a_rim_grasp_must_cross_the_wall_within_the_angle_of_its_normal(rotation, passes):
+    """On the bowl's +x side (the wall's normal along x), closing 0, 22.5 and 45 degrees off the normal passes,
+    67.5 degrees off is refused: the pads would meet the wall obliquely and it slides out (the probe's finding)."""
+    hm, target = _bowl()
+    check = JawGraspCheck.from_arg(GEO, "jaw-walls")
+    row, col = C, C + 35  # on the floor 4 mm inside the +x wall: the line meets it within 7 degrees of the x axis
+    assert check.passes(hm, target, rotation, row, col) is passes
+    assert bool(check.passes_many(hm, target, np.array([rotation]), np.array([row]), np.array([col]))[0]) is passes
+
+
+def test_the_wall_normal_points_up_the_wall_and_is_none_on_a_flat_floor():
+    from pg_policy.decision.rules.grasp_check import wall_normal
+
+    hm, _ = _bowl()
+    normal = wall_normal(hm.height, (C, C + 37), hm.resolution)  # the +x wall's inner face
+    assert normal is not None and normal[0] > 0.95
+    normal = wall_normal(hm.height, (C - 37, C), hm.resolution)  # the -y wall's inner face (rows along y)
+    assert normal is not None and normal[1] < -0.95
+    assert wall_normal(hm.height, (C, C), hm.resolution) is None
