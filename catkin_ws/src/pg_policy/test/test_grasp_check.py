@@ -195,10 +195,11 @@ def test_a_rim_grasp_with_a_neighbour_in_a_fingers_sweep_is_refused():
     assert not check.passes(hm, target, ALONG_X, C, C + 25)
 
 
-@pytest.mark.parametrize("rotation, passes", [(0, True), (1, True), (2, True), (3, False)])
+@pytest.mark.parametrize("rotation, passes", [(0, True), (1, True), (2, False), (3, False), (7, True)])
 def test_a_rim_grasp_must_cross_the_wall_within_the_angle_of_its_normal(rotation, passes):
-    """On the bowl's +x side (the wall's normal along x), closing 0, 22.5 and 45 degrees off the normal passes,
-    67.5 degrees off is refused: the pads would meet the wall obliquely and it slides out (the probe's finding)."""
+    """On the bowl's +x side (the wall's normal along x), closing 0 and 22.5 degrees off the normal passes (rotation
+    7: 157.5 degrees, the same line as -22.5), 45 and 67.5 degrees off is refused: the pads would meet the wall
+    obliquely and it slides out (the probe's finding)."""
     hm, target = _bowl()
     check = JawGraspCheck.from_arg(GEO, "jaw-walls")
     row, col = C, C + 35  # on the floor 4 mm inside the +x wall: the line meets it within 7 degrees of the x axis
