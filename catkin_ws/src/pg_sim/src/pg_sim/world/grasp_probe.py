@@ -8,7 +8,9 @@ simulator's ground-truth label map and picks candidate grasps there, as the poli
 - vessels (bowl, plate, cup, mug, tilted-bowl): ``rim`` cells (within 4 mm of the object's outline), ``wall`` cells
   (10-16 mm inside it: the inner wall, or the floor near the wall) and ``deep`` cells (22-30 mm inside it: the floor
   of a small bowl, a cup or a plate's well, a big bowl's inner wall) at ``--angles`` directions around the object,
-  closing across the wall (the rotation nearest the radial direction and the next one, 22.5 deg off); cups and mugs
+  closing across the wall (the rotation nearest the radial direction and the next one, 22.5 deg off; with
+  ``--off-normal K,...`` the rotations K steps of 22.5 deg off the radial one instead, the region named ``rim+K``);
+  cups and mugs
   also their ``centre`` (the cell farthest from the outline) at two crossing rotations, and mugs their ``handle``
   (the cells beyond the body's inscribed circle) closing across the handle and radially;
 - long thin tools (knife, spoon, fork, spatula, scissors): the medial cell at five stations along the tool's long
@@ -162,8 +164,10 @@ def _distance_to_outline(mask: np.ndarray) -> np.ndarray:
     return cv2.distanceTransform(padded, cv2.DIST_L2, 5)[1:-1, 1:-1]
 
 
-def candidates(category: str, obs: hm.Heightmap, mask: np.ndarray, rotations: int, angles: int) -> list[Candidate]:
-    """Candidate grasps (module docstring) on the object's (H, W) bool cells `mask`."""
+def candidates(category: str, obs: hm.Heightmap, mask: np.ndarray, rotations: int, angles: int,
+               off_normal: Sequence[int] | None = None) -> list[Candidate]:
+    """Candidate grasps (module docstring) on the object's (H, W) bool cells `mask`; `off_normal`: a vessel's band
+    cells close at these rotation steps off the radial direction (region "rim+K") instead of 0 and 1."""
     res = obs.resolution
     rows, cols = np.nonzero(mask)
     if rows.size == 0:
@@ -208,6 +212,10 @@ def candidates(category: str, obs: hm.Heightmap, mask: np.ndarray, rotations: in
             if np.min(gap) > math.pi / angles:
                 continue
             across = _nearest_rotation(float(ang[pick]), rotations)
+            if off_normal is not None:
+                out += [Candidate(f"{region}+{k}", int(rows[pick]), int(cols[pick]), (across + k) % (rotations // 2))
+                        for k in off_normal]
+                continue
             for rot in (across, (across + 1) % (rotations // 2)):
                 out.append(Candidate(region, int(rows[pick]), int(cols[pick]), rot))
     if category in ("cup", "mug"):
@@ -223,7 +231,8 @@ def candidates(category: str, obs: hm.Heightmap, mask: np.ndarray, rotations: in
 
 
 def probe_object(world: World, category: str, object_id: str, colour: tuple[int, int, int], rules: Sequence[str],
-                 angles: int, rng: np.random.Generator, log: Callable[[str], None] | None = None) -> list[Trial]:
+                 angles: int, rng: np.random.Generator, log: Callable[[str], None] | None = None,
+                 off_normal: Sequence[int] | None = None) -> list[Trial]:
     """Every candidate grasp of one object under every rule."""
     from pg_sim.world.primitives import PrimitiveExecutor, PrimitiveRefused
 
@@ -235,7 +244,7 @@ def probe_object(world: World, category: str, object_id: str, colour: tuple[int,
     heightmap = obs.heightmap
     mask = (labels == target) & heightmap.valid
     trials: list[Trial] = []
-    for cand in candidates(category, heightmap, mask, geo.heightmap.rotations, angles):
+    for cand in candidates(category, heightmap, mask, geo.heightmap.rotations, angles, off_normal):
         x, y = hm.pixel_to_world(cand.row, cand.col, heightmap.bounds, heightmap.resolution)
         yaw = hm.rotation_yaw(cand.rotation, geo.heightmap.rotations)
         zs = {rule: RULES[rule](heightmap, geo, cand.rotation, cand.row, cand.col) for rule in rules}
@@ -262,9 +271,10 @@ def probe_object(world: World, category: str, object_id: str, colour: tuple[int,
 
 def run(categories: Sequence[str], objects: int = 4, first: int = 0, rules: Sequence[str] = tuple(RULES),
         angles: int = 4, seed: int = 0, mode: str = DEFAULT_SIM_MODE, geometry: Geometry | None = None,
-        log: Callable[[str], None] | None = None) -> list[Trial]:
+        log: Callable[[str], None] | None = None, off_normal: Sequence[int] | None = None) -> list[Trial]:
     """Probe `objects` objects of each category (ids from `first`) with every rule; the object yaws come from
-    `seed`, the category and the object's index (a subset of categories probes the same scenes)."""
+    `seed`, the category and the object's index (a subset of categories probes the same scenes); `off_normal`: see
+    `candidates`."""
     unknown = [c for c in categories if c not in CATEGORIES]
     if unknown:
         raise ValueError(f"unknown probe categories {unknown}; known: {', '.join(CATEGORIES)}")
@@ -281,7 +291,7 @@ def run(categories: Sequence[str], objects: int = 4, first: int = 0, rules: Sequ
             for k, object_id in enumerate(object_ids(category, objects, first)):
                 colour = COLORS[COLOUR_NAMES[(c + k) % len(COLOUR_NAMES)]]
                 rng = np.random.default_rng([seed, c, first + k])  # the same scene whatever else is probed
-                trials += probe_object(world, category, object_id, colour, rules, angles, rng, log)
+                trials += probe_object(world, category, object_id, colour, rules, angles, rng, log, off_normal)
     return trials
 
 
@@ -321,6 +331,9 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--closed-threshold", type=float, default=None, metavar="M",
                     help="override gripper.closed_threshold (m) for a diagnostic run: the jaw counts as holding "
                          "something above this opening (default: the config's)")
+    ap.add_argument("--off-normal", default=None, metavar="K,...",
+                    help="a vessel's rim, wall and deep cells close at these rotation steps (22.5 deg each) off the "
+                         "radial direction, regions named rim+K (default: 0 and 1, regions unnamed by step)")
     ap.add_argument("--by-region", action="store_true", help="one table row per category and region")
     ap.add_argument("--verbose", action="store_true", help="print every grasp")
     ap.add_argument("--out", type=Path, default=None, help="write every grasp as JSON here")
@@ -329,12 +342,20 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
 def execute(args: argparse.Namespace) -> int:
     if args.objects < 1 or args.angles < 1:
         raise ValueError(f"--objects and --angles must be >= 1, got {args.objects}, {args.angles}")
+    off_normal = None
+    if args.off_normal is not None:
+        try:
+            off_normal = [int(k) for k in str(args.off_normal).split(",")]
+        except ValueError:
+            raise ValueError(f"--off-normal must be comma-separated rotation steps, got {args.off_normal!r}") from None
+        if any(k < 0 or k > 4 for k in off_normal):
+            raise ValueError(f"--off-normal steps must lie in 0..4 (0 to 90 deg), got {args.off_normal!r}")
     geometry = load()
     if args.closed_threshold is not None:
         geometry = replace(geometry, gripper=replace(geometry.gripper, closed_threshold=args.closed_threshold))
     t0 = time.perf_counter()
     trials = run(args.categories, args.objects, args.first, args.rules, args.angles, args.seed, args.sim_mode,
-                 geometry, log=(lambda s: print(s, flush=True)) if args.verbose else None)
+                 geometry, log=(lambda s: print(s, flush=True)) if args.verbose else None, off_normal=off_normal)
     print(table(trials, args.rules, args.by_region))
     print(f"{len(trials)} candidate grasps, {time.perf_counter() - t0:.0f} s wall time ({args.sim_mode} mode)")
     if args.out is not None:
