@@ -87,3 +87,16 @@ def test_the_probe_runs_and_tabulates():
     assert all(set(t.z) == set(RULES) == set(t.success) for t in trials)
     text = table(trials, list(RULES), by_region=True)
     assert "bowl" in text and "jaw-line ok" in text and "deep" in text
+
+
+def test_off_normal_candidates_close_at_the_given_steps_off_the_radial_rotation(world):
+    world.load_scene(_scene())
+    obs = world.observe()
+    mask = (world.label_heightmap(obs.frame) == world.target_id) & obs.heightmap.valid
+    rotations = world.geometry.heightmap.rotations
+    plain = [c for c in candidates("bowl", obs.heightmap, mask, rotations, 2) if c.region == "rim"]
+    off = [c for c in candidates("bowl", obs.heightmap, mask, rotations, 2, off_normal=[0, 3]) if c.region[:3] == "rim"]
+    assert [c.region for c in off] == ["rim+0", "rim+3"] * 2
+    radial = plain[0::2]  # the plain candidates: the radial rotation, then the next one
+    assert [(c.row, c.col, c.rotation) for c in off[0::2]] == [(c.row, c.col, c.rotation) for c in radial]
+    assert [c.rotation for c in off[1::2]] == [(c.rotation + 3) % (rotations // 2) for c in radial]
