@@ -23,9 +23,9 @@ neighbour stands in a finger's sweep: the jaw straddles the wall, one finger ins
 so a vessel wider than the open jaw can still be grasped (the footprint test alone refuses every grasp of it). The
 closing line must cross the wall within RIM_MAX_ANGLE_DEG of its normal (the slope of the heightmap, smoothed over
 WALL_BLUR_CELLS, where the line meets the nearer wall): probed on lone training bowls, cups and mugs (`pushgrasp
-scene grasp-probe`'s rim and wall cells, 32 grasps per vessel and angle), grasps along the wall's normal hold 89
-of 96, 22.5 degrees off 80, 45 degrees off 34 (bowls 31 of 32, cups 0, mugs 5), 67.5 degrees off 25: the pads meet
-the wall obliquely and it slides out between them.
+scene grasp-probe bowl cup mug --off-normal 0,1,2,3`, its rim and wall cells, 32 grasps per vessel and angle),
+grasps along the wall's normal hold 90 of 96, 22.5 degrees off 81, 45 degrees off 36 (bowls 31 of 32, cups 0, mugs
+5), 67.5 degrees off 26: the pads meet the wall obliquely and it slides out between them.
 """
 
 from __future__ import annotations
