@@ -201,7 +201,9 @@ def test_a_rim_grasp_must_cross_the_wall_within_the_angle_of_its_normal(rotation
     7: 157.5 degrees, the same line as -22.5), 45 and 67.5 degrees off is refused: the pads would meet the wall
     obliquely and it slides out (the probe's finding)."""
     hm, target = _bowl()
-    check = JawGraspCheck.from_arg(GEO, "jaw-walls")
+    check = JawGraspCheck.from_arg(GEO, "jaw-walls-normal")
+    assert check.arg() == "jaw-walls-normal"
+    assert JawGraspCheck.from_arg(GEO, "jaw-walls").passes(hm, target, rotation, C, C + 35)  # no angle test there
     row, col = C, C + 35  # on the floor 4 mm inside the +x wall: the line meets it within 7 degrees of the x axis
     assert check.passes(hm, target, rotation, row, col) is passes
     assert bool(check.passes_many(hm, target, np.array([rotation]), np.array([row]), np.array([col]))[0]) is passes

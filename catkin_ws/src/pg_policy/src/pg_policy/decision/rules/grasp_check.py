@@ -20,9 +20,10 @@ is in the shipped model's rule list.
 Rim grasps: a candidate cell of the target that lies in a pit along the closing line (pg_core.action_geometry.rim_pit:
 a bowl's, cup's or mug's floor or inner wall next to its wall) passes without the footprint and wall tests when no
 neighbour stands in a finger's sweep: the jaw straddles the wall, one finger inside the vessel (DESIGN.md section 4),
-so a vessel wider than the open jaw can still be grasped (the footprint test alone refuses every grasp of it). The
-closing line must cross the wall within RIM_MAX_ANGLE_DEG of its normal (the slope of the heightmap, smoothed over
-WALL_BLUR_CELLS, where the line meets the nearer wall): probed on lone training bowls, cups and mugs (`pushgrasp
+so a vessel wider than the open jaw can still be grasped (the footprint test alone refuses every grasp of it). In
+the variant "jaw-walls-normal" ("jaw-walls" otherwise) the closing line must cross the wall within
+RIM_MAX_ANGLE_DEG of its normal (the slope of the heightmap, smoothed over WALL_BLUR_CELLS, where the line meets
+the nearer wall): probed on lone training bowls, cups and mugs (`pushgrasp
 scene grasp-probe bowl cup mug --off-normal 0,1,2,3`, its rim and wall cells, 32 grasps per vessel and angle),
 grasps along the wall's normal hold 90 of 96, 22.5 degrees off 81, 45 degrees off 36 (bowls 31 of 32, cups 0, mugs
 5), 67.5 degrees off 26: the pads meet the wall obliquely and it slides out between them.
@@ -48,12 +49,14 @@ from pg_policy.decision.rules.rule import BatchTest, CandidateTest, Rule, RuleCo
 class CheckVariant:
     strict: bool  # a veto (no candidate passed) asks the policy to push
     walls: bool  # candidates must also show walls where the pads touch (module docstring)
+    rim_normal: bool = False  # a rim grasp must cross the wall near its normal (module docstring)
 
 
 VARIANTS = {
     "jaw": CheckVariant(strict=False, walls=False),
     "jaw-strict": CheckVariant(strict=True, walls=False),
     "jaw-walls": CheckVariant(strict=True, walls=True),
+    "jaw-walls-normal": CheckVariant(strict=True, walls=True, rim_normal=True),
 }
 NAMES = ("none", *VARIANTS)  # what the grasp_check option (`pushgrasp eval --grasp-check`) accepts
 DEFAULT_VARIANT = "jaw-walls"  # the rule's variant when its entry names none
@@ -89,14 +92,15 @@ class JawGraspCheck(Rule):
     name = "grasp_check"
     order = 40
     option = PolicyOption("grasp_check", "str", "jaw-footprint check of the chosen grasp: none, jaw, jaw-strict or "
-                          "jaw-walls (strict variants push when no grasp passes)", choices=NAMES, rule="grasp_check",
+                          "jaw-walls (strict variants push when no grasp passes; jaw-walls-normal: rim grasps "
+                          "near the wall's normal)", choices=NAMES, rule="grasp_check",
                           off="none")
     primitive = "grasp"
     veto_note = "no grasp passes the jaw check: push"
 
     def __init__(self, geometry: Geometry, top_k: int = TOP_K, centre_tol_m: float = CENTRE_TOL_M,
                  strict: bool = False, walls: bool = False, wall_window_m: float = WALL_WINDOW_M,
-                 wall_tol_m: float = WALL_TOL_M) -> None:
+                 wall_tol_m: float = WALL_TOL_M, rim_normal: bool = False) -> None:
         if top_k < 1 or centre_tol_m < 0 or wall_window_m < 0:
             raise ValueError(f"grasp check needs top_k >= 1, centre_tol_m >= 0 and wall_window_m >= 0, got {top_k}, "
                              f"{centre_tol_m}, {wall_window_m}")
@@ -104,8 +108,9 @@ class JawGraspCheck(Rule):
         self.prims = geometry.primitives
         self.top_k, self.centre_tol, self.strict = top_k, centre_tol_m, strict
         self.walls, self.wall_window, self.wall_tol = walls, wall_window_m, wall_tol_m
-        self.variant = next((n for n, v in VARIANTS.items() if v == CheckVariant(strict, walls)),
-                            f"jaw(strict={strict}, walls={walls})")
+        self.rim_normal = rim_normal
+        self.variant = next((n for n, v in VARIANTS.items() if v == CheckVariant(strict, walls, rim_normal)),
+                            f"jaw(strict={strict}, walls={walls}, rim_normal={rim_normal})")
         self.vetoes_grasp = strict  # type: ignore[misc]
 
     @classmethod
@@ -114,7 +119,7 @@ class JawGraspCheck(Rule):
         if name not in VARIANTS:
             raise ValueError(f"unknown grasp check {name!r} (known: {', '.join(VARIANTS)})")
         v = VARIANTS[name]
-        return cls(geometry, strict=v.strict, walls=v.walls)
+        return cls(geometry, strict=v.strict, walls=v.walls, rim_normal=v.rim_normal)
 
     def arg(self) -> str | None:
         return self.variant
@@ -190,7 +195,7 @@ class JawGraspCheck(Rule):
         pit = rim_pit(hm.height, row, col, yaw, hm.resolution, self.prims, float(hm.bounds[2, 0]), color=hm.color)
         if pit is None:
             return False
-        normal = wall_normal(hm.height, pit.wall, hm.resolution) if pit.wall is not None else None
+        normal = wall_normal(hm.height, pit.wall, hm.resolution) if self.rim_normal and pit.wall is not None else None
         if normal is not None and abs(float(normal @ np.array([math.cos(yaw), math.sin(yaw)]))) < math.cos(
                 math.radians(RIM_MAX_ANGLE_DEG)):
             return False  # the pads would meet the wall obliquely (module docstring)
