@@ -9,10 +9,10 @@ simulator's ground-truth label map and picks candidate grasps there, as the poli
   (10-16 mm inside it: the inner wall, or the floor near the wall) and ``deep`` cells (22-30 mm inside it: the floor
   of a small bowl, a cup or a plate's well, a big bowl's inner wall) at ``--angles`` directions around the object,
   closing across the wall (the rotation nearest the radial direction and the next one, 22.5 deg off; with
-  ``--off-normal K,...`` the rotations K steps of 22.5 deg off the radial one instead, the region named ``rim+K``);
-  cups and mugs
-  also their ``centre`` (the cell farthest from the outline) at two crossing rotations, and mugs their ``handle``
-  (the cells beyond the body's inscribed circle) closing across the handle and radially;
+  ``--off-normal K,...`` the rotations K steps of 22.5 deg off the radial one instead, the regions named ``rim+K``,
+  ``wall+K``, ``deep+K``); cups and mugs also their ``centre`` (the cell farthest from the outline) at two crossing
+  rotations, and mugs their ``handle`` (the cells beyond the body's inscribed circle) closing across the handle and
+  radially;
 - long thin tools (knife, spoon, fork, spatula, scissors): the medial cell at five stations along the tool's long
   axis, closing across it (nearest rotation and the next); ``high`` where the cell is 5 mm or more above the table
   (handles, a spoon's bowl, the finger rings), ``low`` elsewhere (blades, tines, a spatula's head);
@@ -167,7 +167,8 @@ def _distance_to_outline(mask: np.ndarray) -> np.ndarray:
 def candidates(category: str, obs: hm.Heightmap, mask: np.ndarray, rotations: int, angles: int,
                off_normal: Sequence[int] | None = None) -> list[Candidate]:
     """Candidate grasps (module docstring) on the object's (H, W) bool cells `mask`; `off_normal`: a vessel's band
-    cells close at these rotation steps off the radial direction (region "rim+K") instead of 0 and 1."""
+    cells close at these rotation steps off the radial direction (regions "rim+K", "wall+K", "deep+K") instead of
+    0 and 1."""
     res = obs.resolution
     rows, cols = np.nonzero(mask)
     if rows.size == 0:
@@ -333,7 +334,8 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
                          "something above this opening (default: the config's)")
     ap.add_argument("--off-normal", default=None, metavar="K,...",
                     help="a vessel's rim, wall and deep cells close at these rotation steps (22.5 deg each) off the "
-                         "radial direction, regions named rim+K (default: 0 and 1, regions unnamed by step)")
+                         "radial direction, regions named rim+K, wall+K, deep+K (default: 0 and 1, regions unnamed "
+                         "by step)")
     ap.add_argument("--by-region", action="store_true", help="one table row per category and region")
     ap.add_argument("--verbose", action="store_true", help="print every grasp")
     ap.add_argument("--out", type=Path, default=None, help="write every grasp as JSON here")

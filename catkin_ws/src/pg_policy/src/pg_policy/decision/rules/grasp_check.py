@@ -23,10 +23,10 @@ neighbour stands in a finger's sweep: the jaw straddles the wall, one finger ins
 so a vessel wider than the open jaw can still be grasped (the footprint test alone refuses every grasp of it). In
 the variant "jaw-walls-normal" ("jaw-walls" otherwise) the closing line must cross the wall within
 RIM_MAX_ANGLE_DEG of its normal (the slope of the heightmap, smoothed over WALL_BLUR_CELLS, where the line meets
-the nearer wall): probed on lone training bowls, cups and mugs (`pushgrasp
-scene grasp-probe bowl cup mug --off-normal 0,1,2,3`, its rim and wall cells, 32 grasps per vessel and angle),
-grasps along the wall's normal hold 90 of 96, 22.5 degrees off 81, 45 degrees off 36 (bowls 31 of 32, cups 0, mugs
-5), 67.5 degrees off 26: the pads meet the wall obliquely and it slides out between them.
+the nearer wall). Probed on lone training bowls, cups and mugs (`pushgrasp scene grasp-probe bowl cup mug
+--off-normal 0,1,2,3`, its rim and wall cells, 32 grasps per vessel and angle), grasps along the wall's normal hold
+90 of 96, 22.5 degrees off 81, 45 degrees off 36 (bowls 31 of 32, cups 0, mugs 5), 67.5 degrees off 26: the pads
+meet the wall obliquely and it slides out between them.
 """
 
 from __future__ import annotations
@@ -91,10 +91,10 @@ class JawGraspCheck(Rule):
 
     name = "grasp_check"
     order = 40
-    option = PolicyOption("grasp_check", "str", "jaw-footprint check of the chosen grasp: none, jaw, jaw-strict or "
-                          "jaw-walls (strict variants push when no grasp passes; jaw-walls-normal: rim grasps "
-                          "near the wall's normal)", choices=NAMES, rule="grasp_check",
-                          off="none")
+    option = PolicyOption("grasp_check", "str", "jaw-footprint check of the chosen grasp: none, jaw, jaw-strict, "
+                          "jaw-walls or jaw-walls-normal (strict variants push when no grasp passes; "
+                          "jaw-walls-normal: jaw-walls with rim grasps near the wall's normal)", choices=NAMES,
+                          rule="grasp_check", off="none")
     primitive = "grasp"
     veto_note = "no grasp passes the jaw check: push"
 
