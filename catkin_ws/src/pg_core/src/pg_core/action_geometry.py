@@ -5,8 +5,10 @@ Heights are TCP (fingertip centre) z in `world`, metres. Heightmap heights are m
 The grasp height (DESIGN.md section 4, the primitive's contract) comes from the cell's height (`grasp_z_for_height`:
 section 4's rule, the low-object rule below 2 cm) unless the cell lies in a pit of an object along the jaw's closing
 line (`rim_pit`: the floor or inner wall of a bowl or a cup next to its wall); there the fingertips go below the
-wall's top and above the floor (`grasp_z` with the rotation's yaw). With the yaw, the palm rule then keeps the palm
-clear of everything under its footprint (`palm_clear_z`): a grasp never drives the palm into an object.
+wall's top and above the floor (`grasp_z` with the rotation's yaw). On a raised part of an object wider than the
+open jaw (`raised_part`: the foot ring of a bowl upside down) the fingertips pass just above the rest of the
+object. With the yaw, the palm rule then keeps the palm clear of everything under its footprint (`palm_clear_z`): a
+grasp never drives the palm into an object.
 """
 
 from __future__ import annotations
@@ -152,6 +154,67 @@ def rim_pit(height: np.ndarray, row: int, col: int, yaw: float, resolution: floa
     return RimPit(centre, min(side[0] for side in sides if side is not None), (int(rr[i, j]), int(cc[i, j])))
 
 
+class RaisedPart(NamedTuple):
+    """A raised part along the jaw line (`raised_part`): `top`, the part's highest cell on the line, and `fingers`,
+    the highest cell the fingers pass over from their open position to the part's edges (m, `world` z)."""
+
+    top: float
+    fingers: float
+
+
+def raised_part(height: np.ndarray, row: int, col: int, yaw: float, resolution: float, prims: PrimitiveSpec,
+                zmin: float = 0.0, color: np.ndarray | None = None) -> RaisedPart | None:
+    """The raised part of an object the jaw at `yaw` closes on at cell (row, col) with its fingertips above the rest
+    of the object, or None: the foot ring of a bowl lying upside down, which is as wide as the open jaw while the
+    bowl is twice as wide.
+
+    Along the closing line through the cell (as `rim_pit`: columns along x, rows along y), each side is walked
+    from the centre cell (an object's, at least PIT_TABLE_M above the table) to the part's edge: the first cell
+    within `grasp_rim_reach` (half the open jaw) less a cell where the line falls by `grasp_part_step` or more within
+    two cells (a wall, not the slope of a round top). Beyond each edge, out to the open finger's outer face
+    (`grasp_rim_reach` + `finger_thickness`), every cell must be the same object (colour within PIT_CHROMA_TOL of the
+    centre's when `color` is given, never the table, inside the map): the object goes on under both fingers, so
+    that what stops them is the object itself, not a neighbour (the jaw check's business) or the table (an ordinary
+    grasp). `fingers` is the highest of those cells; the part's edge cells must stand `grasp_part_clearance` +
+    `grasp_part_contact` or more above it. None when the rule is off (grasp_part_step 0) or any of this fails."""
+    step, reach_m = prims.grasp_part_step, prims.grasp_rim_reach
+    if step <= 0 or reach_m <= 0:
+        return None
+    rows, cols = height.shape
+    centre = float(height[row, col]) + zmin
+    if centre < PIT_TABLE_M:
+        return None
+    reach = int(math.ceil(reach_m / resolution - 1e-9))
+    outer = int(math.ceil((reach_m + prims.finger_thickness) / resolution - 1e-9))
+    dr, dc = _line_offsets(round(float(yaw), 9), outer)  # (2, outer): side +1 then side -1
+    rr, cc = row + dr, col + dc
+    if not ((rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)).all():
+        return None  # a finger would land beyond the map: unseen
+    h = height[rr, cc].astype(np.float64) + zmin
+    same = h >= PIT_TABLE_M
+    if color is not None and np.shape(color)[:2] == height.shape:
+        c0 = np.asarray(color[row, col], dtype=np.float64)
+        c = np.asarray(color[rr, cc], dtype=np.float64)
+        chroma = c / np.maximum(c.sum(axis=-1, keepdims=True), 1.0)
+        same &= np.abs(chroma - c0 / max(float(c0.sum()), 1.0)).max(axis=-1) <= PIT_CHROMA_TOL
+    line = np.concatenate([np.full((2, 2), centre), h], axis=1)  # two centre cells before each side's first
+    edges, tops, fingers = [], [], []
+    for side in (0, 1):
+        falls = line[side, 2:reach + 1] <= np.maximum(line[side, 1:reach], line[side, :reach - 1]) - step
+        if not falls.any():
+            return None  # no wall within the open jaw: no part narrower than the jaw on this side
+        edge = int(np.argmax(falls))  # index into h of the first cell beyond the part
+        if not same[side, edge:].all():
+            return None  # the table or another object under the finger: not a part of a wider object
+        edges.append(edge)
+        tops.append(float(line[side, 1 + edge]))  # the part's last cell on this side (the centre when edge is 0)
+        fingers.append(float(h[side, edge:].max()))
+    part = RaisedPart(max(centre, *(float(h[i, :e].max(initial=centre)) for i, e in enumerate(edges))), max(fingers))
+    if min(tops) < part.fingers + prims.grasp_part_clearance + prims.grasp_part_contact:
+        return None  # the part's edges stand too little above the rest for the pads to hold them
+    return part
+
+
 @lru_cache(maxsize=64)
 def _palm_offsets(yaw: float, half_x: float, half_y: float) -> tuple[np.ndarray, np.ndarray]:
     """(row, col) offsets, in cells, of the cells whose centres lie in the palm's footprint: |u| <= half_x along the
@@ -189,7 +252,9 @@ def grasp_z(height: np.ndarray, row: int, col: int, prims: PrimitiveSpec, zmin: 
     needed then; `color`: the (H, W, 3) colour heightmap, optional): where the pixel lies in a pit along the jaw
     line (`rim_pit`: a bowl's floor or inner wall next to its rim, the inside of a cup or a mug), z = max(rim -
     grasp_rim_depth, floor + grasp_rim_clearance): one finger inside the wall and one outside, the fingertips below
-    the rim and above the floor; elsewhere grasp_z_for_height of the pixel's height. With the yaw, z is then raised
+    the rim and above the floor; elsewhere grasp_z_for_height of the pixel's height, raised to `raised_part`'s
+    fingers + grasp_part_clearance where the pixel lies on a raised part of a wider object (the foot ring of a bowl
+    upside down: the fingers pass over the bowl and close on the foot). With the yaw, z is then raised
     to `palm_clear_z` where the palm would otherwise meet an object (the palm rule, when configured).
     """
     if yaw is None:
@@ -201,6 +266,9 @@ def grasp_z(height: np.ndarray, row: int, col: int, prims: PrimitiveSpec, zmin: 
         z = max(pit.rim - prims.grasp_rim_depth, pit.floor + prims.grasp_rim_clearance)
     else:
         z = grasp_z_for_height(float(height[row, col]) + zmin, prims)
+        part = raised_part(height, row, col, yaw, resolution, prims, zmin, color)
+        if part is not None:
+            z = max(z, part.fingers + prims.grasp_part_clearance)
     palm = palm_clear_z(height, row, col, yaw, resolution, prims, zmin)
     return z if palm is None else max(z, palm)
 

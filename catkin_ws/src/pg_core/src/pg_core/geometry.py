@@ -160,6 +160,16 @@ class PrimitiveSpec:
     grasp_palm_clearance: float | None = None
     palm_footprint: tuple[float, float] = (0.0, 0.0)
     finger_length: float = 0.0
+    # Raised parts (pg_core.action_geometry.raised_part / grasp_z with a yaw): where the grasp cell lies on a part of
+    # an object that stands out by a wall at least grasp_part_step high within the open jaw, the object going on under
+    # both fingers, the fingertip z is grasp_part_clearance above the highest cell the fingers pass over, the part's
+    # edges at least grasp_part_contact above that (the foot ring of a bowl upside down). Optional in the YAML;
+    # absent (grasp_part_step 0) = no raised parts. finger_thickness (m, along the closing axis) is not a YAML key:
+    # `parse` copies it from gripper.finger_size.
+    grasp_part_step: float = 0.0
+    grasp_part_clearance: float = 0.0
+    grasp_part_contact: float = 0.0
+    finger_thickness: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -246,7 +256,7 @@ def _robot(raw: dict) -> RobotSpec:
 
 def _check_low_grasp(prims: PrimitiveSpec) -> None:
     """ValueError naming the key unless the low-object grasp keys hold 0 <= lo <= hi, a fraction in [0, 1] and a
-    z >= 0, and the jaw-line pit keys (grasp_rim_*) finite lengths >= 0."""
+    z >= 0, and the jaw-line pit and raised-part keys (grasp_rim_*, grasp_part_*) finite lengths >= 0."""
     lo, hi = prims.grasp_low_heights
     checks = {
         "grasp_low_heights": (0.0 <= lo <= hi, f"must be [lo, hi] heights with 0 <= lo <= hi (m), got [{lo}, {hi}]"),
@@ -256,7 +266,8 @@ def _check_low_grasp(prims: PrimitiveSpec) -> None:
         "grasp_low_min_z": (isinstance(prims.grasp_low_min_z, int | float) and prims.grasp_low_min_z >= 0.0,
                             f"must be a height >= 0 m, got {prims.grasp_low_min_z!r}"),
     }
-    for key in ("grasp_rim_depth", "grasp_rim_clearance", "grasp_rim_step", "grasp_rim_wall", "grasp_rim_reach"):
+    for key in ("grasp_rim_depth", "grasp_rim_clearance", "grasp_rim_step", "grasp_rim_wall", "grasp_rim_reach",
+                "grasp_part_step", "grasp_part_clearance", "grasp_part_contact"):
         value = getattr(prims, key)
         checks[key] = (isinstance(value, int | float) and not isinstance(value, bool) and 0.0 <= value < math.inf,
                        f"must be a length >= 0 m, got {value!r}")
@@ -289,7 +300,7 @@ def parse(raw: dict, path: Path) -> Geometry:
     _check_low_grasp(primitives)
     gripper = _section(raw, "gripper", GripperSpec, {"palm_size": 3, "finger_size": 3})
     primitives = replace(primitives, palm_footprint=(gripper.palm_size[0], gripper.palm_size[1]),
-                         finger_length=gripper.finger_size[2])
+                         finger_length=gripper.finger_size[2], finger_thickness=gripper.finger_size[0])
     return Geometry(
         path=path,
         world_frame=str(_get(frames, "world", "frames.")),

@@ -1,5 +1,6 @@
 """Re-rank the best cells of a Q map by a yes/no test, keeping the best value: shared by the test-time checks
-(pg_policy.decision.rules.grasp_check on Q_g, pg_policy.decision.rules.edge_guard on Q_p)."""
+(pg_policy.decision.rules.grasp_check on Q_g, pg_policy.decision.rules.edge_guard on Q_p), and over candidates a rule
+proposes (pg_policy.decision.rules.rim_search)."""
 
 from __future__ import annotations
 
@@ -33,6 +34,38 @@ def rerank(q: np.ndarray, region: np.ndarray, allowed: Callable[[int, int, int],
         out.reshape(-1)[order[:rank]] = -np.inf
         out[r, row, col] = masked[order[0]]
     return out, rank
+
+
+def rerank_among(q: np.ndarray, region: np.ndarray, allowed: Callable[[int, int, int], bool],
+                 candidates: tuple[np.ndarray, np.ndarray, np.ndarray]) -> tuple[np.ndarray, int | None]:
+    """`rerank` over given candidates instead of the map's best cells: (a float64 copy of the (R, H, W) map `q`, the
+    number of cells of the region valued above the chosen one).
+
+    `candidates` are (K,) int arrays (rotations, rows, cols), for instance a rule's geometric proposals
+    (pg_policy.decision.rules.rule.Rule.proposals); those outside the (H, W) bool `region` or not finite in `q` are
+    dropped, the others asked in descending value (ties in the order given). The first that `allowed` accepts takes
+    the region's best value and every cell valued above it gets -inf, so the argmax over the region becomes that
+    cell; none accepted: the copy is unchanged and the rank is None.
+    """
+    out = np.asarray(q, dtype=np.float64).copy()
+    rots, rows, cols = (np.asarray(a, dtype=np.int64).reshape(-1) for a in candidates)
+    if rots.size == 0:
+        return out, None
+    flat = np.ravel_multi_index((rots, rows, cols), out.shape)
+    value = out.reshape(-1)[flat]
+    keep = region[rows, cols] & np.isfinite(value)
+    flat, value = flat[keep], value[keep]
+    order = flat[np.argsort(-value, kind="stable")]
+    rank = _first_allowed(order, out.shape, allowed)
+    if rank is None:
+        return out, None
+    chosen = int(order[rank])
+    masked = np.where(region[None] & np.isfinite(out), out, -np.inf).reshape(-1)
+    above = masked > masked[chosen]
+    best = float(masked.max())
+    out.reshape(-1)[above] = -np.inf
+    out.reshape(-1)[chosen] = best
+    return out, int(above.sum())
 
 
 FIRST_BATCH = 8  # candidates asked at once first; each later batch is twice as large

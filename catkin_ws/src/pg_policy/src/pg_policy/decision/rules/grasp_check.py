@@ -20,7 +20,10 @@ is in the shipped model's rule list.
 Rim grasps: a candidate cell of the target that lies in a pit along the closing line (pg_core.action_geometry.rim_pit:
 a bowl's, cup's or mug's floor or inner wall next to its wall) passes without the footprint and wall tests when no
 neighbour stands in a finger's sweep: the jaw straddles the wall, one finger inside the vessel (DESIGN.md section 4),
-so a vessel wider than the open jaw can still be grasped (the footprint test alone refuses every grasp of it). In
+so a vessel wider than the open jaw can still be grasped (the footprint test alone refuses every grasp of it).
+Likewise a candidate on a raised part of a target wider than the open jaw (pg_core.action_geometry.raised_part: the
+foot ring of a bowl upside down, the fingertips just above the bowl) passes when no neighbour stands in a finger's
+sweep. In
 the variant "jaw-walls-normal" ("jaw-walls" otherwise) the closing line must cross the wall within
 RIM_MAX_ANGLE_DEG of its normal (the slope of the heightmap, smoothed over WALL_BLUR_CELLS, where the line meets
 the nearer wall). Probed on lone training bowls, cups and mugs (`pushgrasp scene grasp-probe bowl cup mug
@@ -37,7 +40,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from pg_core.action_geometry import grasp_z_at, rim_pit
+from pg_core.action_geometry import grasp_z_at, raised_part, rim_pit
 from pg_core.geometry import Geometry
 from pg_core.heightmap import TOP_K, Heightmap, pixel_to_world, rotation_yaw
 from pg_policy.decision.jaw_fit import JawFit
@@ -138,7 +141,8 @@ class JawGraspCheck(Rule):
         if fit is not None and fit[0] >= 0 and abs(float((fit[1] - centre) @ u)) <= self.centre_tol and (
                 not self.walls or self.wall_height(cells.xy[t], cells.h[t], fit[1], yaw) >= zg + self.wall_tol):
             return True
-        return self.rim_grasp(hm, target, row, col, yaw, centre, zg, cells.xy[o], cells.h[o])
+        return (self.rim_grasp(hm, target, row, col, yaw, centre, zg, cells.xy[o], cells.h[o])
+                or self.part_grasp(hm, target, row, col, yaw, centre, zg, cells.xy[o], cells.h[o]))
 
     def wall_height(self, t_xy: np.ndarray, t_h: np.ndarray, centre: np.ndarray, yaw: float) -> float:
         """The lower of the target's two wall heights (m) where the pads of a grasp at `yaw` through `centre` touch:
@@ -181,8 +185,9 @@ class JawGraspCheck(Rule):
             for i in np.flatnonzero(ok):
                 ok[i] = self.wall_height(t_xy, t_h, c2[i], float(yaws[i])) >= zg[i] + self.wall_tol
         for i in np.flatnonzero(~ok):
-            ok[i] = self.rim_grasp(hm, target, int(rows[i]), int(cols[i]), float(yaws[i]), centres[i], float(zg[i]),
-                                   o_xy, o_h, clearance)
+            args = (hm, target, int(rows[i]), int(cols[i]), float(yaws[i]), centres[i], float(zg[i]), o_xy, o_h,
+                    clearance)
+            ok[i] = self.rim_grasp(*args) or self.part_grasp(*args)
         return ok
 
     def rim_grasp(self, hm: Heightmap, target: np.ndarray, row: int, col: int, yaw: float, centre: np.ndarray,
@@ -199,7 +204,26 @@ class JawGraspCheck(Rule):
         if normal is not None and abs(float(normal @ np.array([math.cos(yaw), math.sin(yaw)]))) < math.cos(
                 math.radians(RIM_MAX_ANGLE_DEG)):
             return False  # the pads would meet the wall obliquely (module docstring)
-        if not clearance or not len(o_xy):
+        return not clearance or self.fingers_clear(o_xy, o_h, centre, yaw, z_grasp)
+
+    def part_grasp(self, hm: Heightmap, target: np.ndarray, row: int, col: int, yaw: float, centre: np.ndarray,
+                   z_grasp: float, o_xy: np.ndarray, o_h: np.ndarray, clearance: bool = True) -> bool:
+        """Whether a grasp at target cell (row, col) closing along `yaw` closes on a raised part of the target
+        (module docstring; pg_core.action_geometry.raised_part) with, when `clearance`, no other object in the open
+        jaw's sweep (`fingers_clear`)."""
+        if not target[row, col]:
+            return False
+        part = raised_part(hm.height, row, col, yaw, hm.resolution, self.prims, float(hm.bounds[2, 0]),
+                           color=hm.color)
+        if part is None:
+            return False
+        return not clearance or self.fingers_clear(o_xy, o_h, centre, yaw, z_grasp)
+
+    def fingers_clear(self, o_xy: np.ndarray, o_h: np.ndarray, centre: np.ndarray, yaw: float,
+                      z_grasp: float) -> bool:
+        """Whether no other object's cell ((K, 2) `o_xy` m, heights `o_h` m) higher than `z_grasp` - obstacle_tol
+        lies in the open jaw's sweep around `centre` closing along `yaw`."""
+        if not len(o_xy):
             return True
         p = self.jaw.p
         u = np.array([math.cos(yaw), math.sin(yaw)])

@@ -6,7 +6,9 @@ re-ranks the map once by the conjunction of the rules' candidate tests (pg_polic
 candidate passes the tests of the "preference" rules with the others, by the others' alone): the
 best-valued candidate inside the primitive's region that passes every test takes the map's best value, so the
 grasp-or-push decision (masked max vs the threshold) is unchanged by the tests; when none of the best `top_k`
-passes, the map is left as it was and a vetoing grasp rule asks the policy to push instead. When the policy must
+passes, the candidates the map's rules propose (Rule.proposals) are asked in descending value with the same tests,
+and when none of those passes either, the map is left as it was and a vetoing grasp rule asks the policy to push
+instead. When the policy must
 grasp all the same (its push budget is spent), `forced_grasp` re-ranks Q_g by the rules' weaker fallback tests.
 """
 
@@ -20,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from pg_policy.decision.rerank import rerank
+from pg_policy.decision.rerank import rerank, rerank_among
 from pg_policy.decision.rules.rule import BatchTest, CandidateTest, Rule, RuleContext
 
 FORCED_TOP_K = 1000  # candidates examined per fallback level of a forced grasp
@@ -150,6 +152,15 @@ class RulePipeline:
             ranked, rank = rerank(q, region, conjunction([t for _, t in tested]), top_k)
             if rank is None and len(hard) < len(tested):  # no candidate passes the preferences: the checks alone
                 ranked, rank = rerank(q, region, conjunction([t for _, t in hard]) if hard else _any, top_k)
+        if rank is None:
+            offered = [p for r in rules if (p := r.proposals(ctx)) is not None and len(p[0])]
+            if offered:
+                candidates = tuple(np.concatenate([p[i] for p in offered]) for i in range(3))
+                with timer.charge("rerank", exclusive=True):
+                    ranked, rank = rerank_among(q, region, conjunction([t for _, t in tested]), candidates)
+                    if rank is None and len(hard) < len(tested):
+                        ranked, rank = rerank_among(q, region, conjunction([t for _, t in hard]) if hard else _any,
+                                                    candidates)
         vetoed = rank is None and bool((region[None] & np.isfinite(ranked)).any())
         return MapOutcome(ranked, shown, rank or 0, vetoed, [r for r, _ in hard if r.vetoes_grasp])
 
@@ -236,6 +247,10 @@ class TimedRule:
     def adjust(self, q: np.ndarray, ctx: RuleContext) -> np.ndarray:
         with self.timer.charge(self.rule.name):
             return self.rule.adjust(q, ctx)
+
+    def proposals(self, ctx: RuleContext) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        with self.timer.charge(self.rule.name):
+            return self.rule.proposals(ctx)
 
     def candidate_test(self, ctx: RuleContext) -> CandidateTest | None:
         with self.timer.charge(self.rule.name):

@@ -6,6 +6,8 @@ heightmap's cells) in one of two ways, in the style of grid_map's filter chains 
 - `candidate_test(ctx)`: return a yes/no test of a candidate (rotation, row, col), or None when the rule has nothing
   to say in this context. The pipeline (pg_policy.decision.rules.pipeline) walks the map's best cells inside the
   primitive's region and keeps the first candidate that passes the tests of every rule on that map.
+When none of the map's best cells passes, `proposals(ctx)` may offer candidates of its own (geometric ones the nets
+rank low), which the pipeline asks in descending value with the same tests.
 When the push budget forces a grasp and no candidate passes, `fallback_tests(ctx)` offers weaker tests in turn.
 Within a trial, `observe(last, before, after)` tells a rule what the previous action did (its decision and the
 contexts before and after it); `reset()` starts a new trial. A grasp rule with `vetoes_grasp` asks the policy to push
@@ -144,6 +146,11 @@ class Rule:
 
     def candidate_test(self, ctx: RuleContext) -> CandidateTest | None:
         """A yes/no test of a candidate (rotation, row, col) in this context, or None (no opinion)."""
+        return None
+
+    def proposals(self, ctx: RuleContext) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Candidates (rotations, rows, cols: (K,) int arrays) to ask the map's tests about when none of its best
+        `top_k` cells passes them (pg_policy.decision.rules.pipeline); None (the default): no proposals."""
         return None
 
     def fallback_tests(self, ctx: RuleContext) -> list[CandidateTest]:
