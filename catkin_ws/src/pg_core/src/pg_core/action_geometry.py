@@ -171,12 +171,13 @@ def raised_part(height: np.ndarray, row: int, col: int, yaw: float, resolution: 
     Along the closing line through the cell (as `rim_pit`: columns along x, rows along y), each side is walked
     from the centre cell (an object's, at least PIT_TABLE_M above the table) to the part's edge: the first cell
     within `grasp_rim_reach` (half the open jaw) less a cell where the line falls by `grasp_part_step` or more within
-    two cells (a wall, not the slope of a round top). Beyond each edge, out to the open finger's outer face
-    (`grasp_rim_reach` + `finger_thickness`), every cell must be the same object (colour within PIT_CHROMA_TOL of the
-    centre's when `color` is given, never the table, inside the map): the object goes on under both fingers, so
-    that what stops them is the object itself, not a neighbour (the jaw check's business) or the table (an ordinary
-    grasp). `fingers` is the highest of those cells; the part's edge cells must stand `grasp_part_clearance` +
-    `grasp_part_contact` or more above it. None when the rule is off (grasp_part_step 0) or any of this fails."""
+    two cells (a wall, not the slope of a round top). Beyond each edge, out to the open pad (`grasp_rim_reach`),
+    every cell must be the same object (colour within PIT_CHROMA_TOL of the centre's when `color` is given, never
+    the table), and the line must stay inside the map out to the open finger's outer face (`grasp_rim_reach` +
+    `finger_thickness`): the object goes on under both fingers, so that what stops them is the object itself, not a
+    neighbour (the jaw check's business) or the table (an ordinary grasp). `fingers` is the highest cell from the
+    edge to the outer face; the part's edge cells must stand `grasp_part_clearance` + `grasp_part_contact` or more
+    above it (a round top falls gradually: the cell beyond its "edge" stands nearly as high as the one before). None when the rule is off (grasp_part_step 0) or any of this fails."""
     step, reach_m = prims.grasp_part_step, prims.grasp_rim_reach
     if step <= 0 or reach_m <= 0:
         return None
@@ -204,8 +205,8 @@ def raised_part(height: np.ndarray, row: int, col: int, yaw: float, resolution: 
         if not falls.any():
             return None  # no wall within the open jaw: no part narrower than the jaw on this side
         edge = int(np.argmax(falls))  # index into h of the first cell beyond the part
-        if not same[side, edge:].all():
-            return None  # the table or another object under the finger: not a part of a wider object
+        if not same[side, edge:reach].all():
+            return None  # the table or another object under the open pad: not a part of a wider object
         edges.append(edge)
         tops.append(float(line[side, 1 + edge]))  # the part's last cell on this side (the centre when edge is 0)
         fingers.append(float(h[side, edge:].max()))

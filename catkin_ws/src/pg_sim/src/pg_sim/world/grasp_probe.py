@@ -1,9 +1,10 @@
 """Grasp-height probe: how often a grasp at the cells a policy could pick lifts a household object, per grasp-height
 rule (no ROS, no policy).
 
-Each object lies alone on the table at rest (``tilted-bowl``: a bowl resting tilted on a 45 mm block; ``block``: the
-block shapes of the block scenes, as a control). The probe renders the heightmap, takes the object's cells from the
-simulator's ground-truth label map and picks candidate grasps there, as the policy's cells and rotations:
+Each object lies alone on the table at rest (``tilted-bowl``: a bowl resting tilted on a 45 mm block;
+``upturned-bowl``: a bowl upside down; ``block``: the block shapes of the block scenes, as a control). The probe
+renders the heightmap, takes the object's cells from the simulator's ground-truth label map and picks candidate
+grasps there, as the policy's cells and rotations:
 
 - vessels (bowl, plate, cup, mug, tilted-bowl): ``rim`` cells (within 4 mm of the object's outline), ``wall`` cells
   (10-16 mm inside it: the inner wall, or the floor near the wall) and ``deep`` cells (22-30 mm inside it: the floor
@@ -16,6 +17,8 @@ simulator's ground-truth label map and picks candidate grasps there, as the poli
 - long thin tools (knife, spoon, fork, spatula, scissors): the medial cell at five stations along the tool's long
   axis, closing across it (nearest rotation and the next); ``high`` where the cell is 5 mm or more above the table
   (handles, a spoon's bowl, the finger rings), ``low`` elsewhere (blades, tines, a spatula's head);
+- an upturned bowl: its ``foot`` (the centroid of its cells within 4 mm of its top, and the cells 3 cells off it
+  along x and y) at two crossing rotations;
 - blocks: the centre at two crossing rotations.
 
 Every candidate is executed with the fingertip z of each rule (the scene reloaded at its rest pose before each grasp;
@@ -55,7 +58,7 @@ if TYPE_CHECKING:  # the simulator (pybullet, meshes) loads when a probe runs, n
 
 VESSELS = ("bowl", "plate", "cup", "mug", "tilted-bowl")
 TOOLS = ("knife", "spoon", "fork", "spatula", "scissors")
-CATEGORIES = (*VESSELS, *TOOLS, "block")
+CATEGORIES = (*VESSELS, "upturned-bowl", *TOOLS, "block")
 BLOCKS = ("cube", "half_cube", "cylinder", "rect", "triangle", "half_cylinder")
 COLOUR_NAMES = ("green", "blue", "yellow", "red", "gray", "purple")  # objects take these in turn
 BANDS = {"rim": (0.0, 0.004), "wall": (0.010, 0.016), "deep": (0.022, 0.030)}  # m from a vessel's outline
@@ -116,7 +119,7 @@ def object_ids(category: str, count: int, first: int) -> list[str]:
     bowls), block shape names for ``block``."""
     if category == "block":
         return [BLOCKS[(first + k) % len(BLOCKS)] for k in range(count)]
-    base = "bowl" if category == "tilted-bowl" else category
+    base = "bowl" if category in ("tilted-bowl", "upturned-bowl") else category
     return [f"{base}/{first + k}" for k in range(count)]
 
 
@@ -145,6 +148,12 @@ def build_scene(world: World, category: str, object_id: str, colour: tuple[int, 
                 *(float(a) for a in rot.as_euler("xyz")))
         obj = object_spec(object_id, colour, pose, "target", target=True)
         objs = (support, obj)
+    elif category == "upturned-bowl":
+        info = household_info(object_id)
+        rot = Rotation.from_euler("z", yaw) * Rotation.from_euler("xyz", info.rest_rpy) * Rotation.from_euler("x",
+                                                                                                            math.pi)
+        pose = (0.0, 0.0, info.extents[2] / 2 + 0.003, *(float(a) for a in rot.as_euler("xyz")))
+        objs = (object_spec(object_id, colour, pose, "target", target=True),)
     else:
         objs = (object_spec(object_id, colour, _rest_pose(object_id, 0.0, 0.0, yaw), "target", target=True),)
     world.load_scene(SceneSpec(f"probe-{object_id}", "green", objs, family="probe"))
@@ -178,6 +187,11 @@ def candidates(category: str, obs: hm.Heightmap, mask: np.ndarray, rotations: in
     if category == "block":
         r0, c0 = np.unravel_index(int(np.argmax(dist)), dist.shape)
         return [Candidate("centre", int(r0), int(c0), rot) for rot in (0, rotations // 4)]
+    if category == "upturned-bowl":
+        top = mask & (obs.height >= float(obs.height[mask].max()) - 0.004)
+        tr, tc = (int(round(float(a.mean()))) for a in np.nonzero(top))
+        return [Candidate("foot", tr + dr, tc + dc, rot) for dr, dc in ((0, 0), (3, 0), (-3, 0), (0, 3), (0, -3))
+                for rot in (0, rotations // 4)]
     if category in TOOLS:
         pts = np.column_stack([cols, rows]).astype(np.float64)  # (x, y) cell coordinates
         centre = pts.mean(axis=0)
