@@ -40,13 +40,13 @@ def _upturned_bowl(neighbour: bool = False) -> tuple[Heightmap, np.ndarray]:
     return Heightmap(color, height, np.ones((H, W), bool), RES, GEO.workspace.bounds), target
 
 
-def _bowl() -> tuple[Heightmap, np.ndarray]:
-    """A 16 cm bowl standing: a 6 mm thick, 5 cm high wall around a floor 5 mm above the table."""
+def _bowl(rim: float = 0.05) -> tuple[Heightmap, np.ndarray]:
+    """A 16 cm bowl standing: a 6 mm thick wall `rim` m high around a floor 5 mm above the table (0.02: a plate)."""
     rr, cc = np.mgrid[0:H, 0:W]
     r = np.hypot(rr - C, cc - C) * RES
     height = np.zeros((H, W), np.float32)
     height[r <= 0.08] = 0.005
-    height[(r > 0.074) & (r <= 0.08)] = 0.05
+    height[(r > 0.074) & (r <= 0.08)] = rim
     hm = Heightmap(np.full((H, W, 3), 90, np.uint8), height, np.ones((H, W), bool), RES, GEO.workspace.bounds)
     return hm, height > 0
 
@@ -82,6 +82,9 @@ def test_part_proposals_sit_on_the_foot_and_rim_proposals_cross_the_wall():
     off = np.abs(np.angle(np.exp(1j * 2 * (rotation_yaw(rots, 16) - radial)))) / 2
     assert off.max() <= np.pi / 16 + 0.15
     assert search.proposals(context(hm, target, visible=False)) is None
+    hm, target = _bowl(rim=0.02)  # a plate's rim, 15 mm above its floor: under the pads' depth
+    assert JawGraspCheck.from_arg(GEO, "jaw-walls").passes(hm, target, 0, C, C + 35)  # a rim grasp to the check
+    assert search.rim_candidates(context(hm, target)) is None  # but never proposed
 
 
 def test_the_pipeline_asks_the_proposals_when_no_best_cell_passes():
