@@ -87,6 +87,19 @@ def _line_offsets(yaw: float, m: int) -> tuple[np.ndarray, np.ndarray]:
     return (np.rint(k * math.sin(yaw)).astype(np.int64), np.rint(k * math.cos(yaw)).astype(np.int64))
 
 
+def _same_chroma(color: np.ndarray | None, shape: tuple[int, ...], row: int, col: int, rr: np.ndarray,
+                 cc: np.ndarray) -> np.ndarray | bool:
+    """Whether the cells (rr, cc) (index arrays inside the map) have the chromaticity r, g, b / (r + g + b) of cell
+    (row, col) within PIT_CHROMA_TOL in the (H, W, 3) colour heightmap `color`: a bool array shaped like rr, or
+    True when there is no colour (None, or not of the heightmap's `shape`)."""
+    if color is None or np.shape(color)[:2] != shape[:2]:
+        return True
+    c0 = np.asarray(color[row, col], dtype=np.float64)
+    c = np.asarray(color[rr, cc], dtype=np.float64)
+    chroma = c / np.maximum(c.sum(axis=-1, keepdims=True), 1.0)
+    return np.abs(chroma - c0 / max(float(c0.sum()), 1.0)).max(axis=-1) <= PIT_CHROMA_TOL
+
+
 def rim_pit(height: np.ndarray, row: int, col: int, yaw: float, resolution: float, prims: PrimitiveSpec,
             zmin: float = 0.0, color: np.ndarray | None = None) -> RimPit | None:
     """The pit the cell (row, col) lies in along the jaw's closing line at `yaw`, or None (then the cell's height
@@ -127,12 +140,7 @@ def rim_pit(height: np.ndarray, row: int, col: int, yaw: float, resolution: floa
     if min(abs(h[0, 0] - centre), abs(h[1, 0] - centre)) > step / 2:
         return None  # a crack, not a floor: neither neighbour on the line is near the cell's height (an edge cell)
     obj = inside & (h >= PIT_TABLE_M)
-    same = obj.copy()
-    if color is not None and np.shape(color)[:2] == height.shape:
-        c0 = np.asarray(color[row, col], dtype=np.float64)
-        c = np.asarray(color[rr, cc], dtype=np.float64)
-        chroma = c / np.maximum(c.sum(axis=-1, keepdims=True), 1.0)
-        same &= np.abs(chroma - c0 / max(float(c0.sum()), 1.0)).max(axis=-1) <= PIT_CHROMA_TOL
+    same = obj & _same_chroma(color, height.shape, row, col, rr, cc)
     sides = [_side_wall(h[i], same[i], centre, reach, wall, step) for i in (0, 1)]
     if sides[0] is None and sides[1] is None:
         return None
@@ -177,7 +185,8 @@ def raised_part(height: np.ndarray, row: int, col: int, yaw: float, resolution: 
     `finger_thickness`): the object goes on under both fingers, so that what stops them is the object itself, not a
     neighbour (the jaw check's business) or the table (an ordinary grasp). `fingers` is the highest cell from the
     edge to the outer face; the part's edge cells must stand `grasp_part_clearance` + `grasp_part_contact` or more
-    above it (a round top falls gradually: the cell beyond its "edge" stands nearly as high as the one before). None when the rule is off (grasp_part_step 0) or any of this fails."""
+    above it (a round top falls gradually: the cell beyond its "edge" stands nearly as high as the one before).
+    None when the rule is off (grasp_part_step 0) or any of this fails."""
     step, reach_m = prims.grasp_part_step, prims.grasp_rim_reach
     if step <= 0 or reach_m <= 0:
         return None
@@ -192,12 +201,7 @@ def raised_part(height: np.ndarray, row: int, col: int, yaw: float, resolution: 
     if not ((rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)).all():
         return None  # a finger would land beyond the map: unseen
     h = height[rr, cc].astype(np.float64) + zmin
-    same = h >= PIT_TABLE_M
-    if color is not None and np.shape(color)[:2] == height.shape:
-        c0 = np.asarray(color[row, col], dtype=np.float64)
-        c = np.asarray(color[rr, cc], dtype=np.float64)
-        chroma = c / np.maximum(c.sum(axis=-1, keepdims=True), 1.0)
-        same &= np.abs(chroma - c0 / max(float(c0.sum()), 1.0)).max(axis=-1) <= PIT_CHROMA_TOL
+    same = (h >= PIT_TABLE_M) & _same_chroma(color, height.shape, row, col, rr, cc)
     line = np.concatenate([np.full((2, 2), centre), h], axis=1)  # two centre cells before each side's first
     edges, tops, fingers = [], [], []
     for side in (0, 1):
