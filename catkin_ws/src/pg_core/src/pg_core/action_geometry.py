@@ -87,6 +87,20 @@ def _line_offsets(yaw: float, m: int) -> tuple[np.ndarray, np.ndarray]:
     return (np.rint(k * math.sin(yaw)).astype(np.int64), np.rint(k * math.cos(yaw)).astype(np.int64))
 
 
+def _cells(length_m: float, resolution: float) -> int:
+    """The number of cells (resolution m each) that covers `length_m` m."""
+    return int(math.ceil(length_m / resolution - 1e-9))
+
+
+def _object_centre(height: np.ndarray, row: int, col: int, zmin: float, step: float, reach_m: float) -> float | None:
+    """The `world` z (m) of cell (row, col) when a jaw-line rule with this `step` and `reach_m` is on (both > 0) and
+    the cell belongs to an object (PIT_TABLE_M or more above the table); None otherwise."""
+    if step <= 0 or reach_m <= 0:
+        return None
+    centre = float(height[row, col]) + zmin
+    return None if centre < PIT_TABLE_M else centre
+
+
 def _same_chroma(color: np.ndarray | None, shape: tuple[int, ...], row: int, col: int, rr: np.ndarray,
                  cc: np.ndarray) -> np.ndarray | bool:
     """Whether the cells (rr, cc) (index arrays inside the map) have the chromaticity r, g, b / (r + g + b) of cell
@@ -121,13 +135,11 @@ def rim_pit(height: np.ndarray, row: int, col: int, yaw: float, resolution: floa
       inside of a vessel curving down to its floor, not the flat top of a block leaning on another).
     `rim`: the lower of the walls met; `floor`: the cell's height; `wall`: the nearer wall's cell."""
     step, reach_m = prims.grasp_rim_step, prims.grasp_rim_reach
-    if step <= 0 or reach_m <= 0:
+    centre = _object_centre(height, row, col, zmin, step, reach_m)
+    if centre is None:
         return None
     rows, cols = height.shape
-    centre = float(height[row, col]) + zmin
-    if centre < PIT_TABLE_M:
-        return None
-    reach = int(math.ceil(reach_m / resolution - 1e-9))
+    reach = _cells(reach_m, resolution)
     if float(height[max(row - reach, 0):row + reach + 1, max(col - reach, 0):col + reach + 1].max()) + zmin \
             < centre + step:
         return None  # nothing within reach stands a step above the cell: no wall (most cells)
@@ -188,14 +200,11 @@ def raised_part(height: np.ndarray, row: int, col: int, yaw: float, resolution: 
     above it (a round top falls gradually: the cell beyond its "edge" stands nearly as high as the one before).
     None when the rule is off (grasp_part_step 0) or any of this fails."""
     step, reach_m = prims.grasp_part_step, prims.grasp_rim_reach
-    if step <= 0 or reach_m <= 0:
+    centre = _object_centre(height, row, col, zmin, step, reach_m)
+    if centre is None:
         return None
     rows, cols = height.shape
-    centre = float(height[row, col]) + zmin
-    if centre < PIT_TABLE_M:
-        return None
-    reach = int(math.ceil(reach_m / resolution - 1e-9))
-    outer = int(math.ceil((reach_m + prims.finger_thickness) / resolution - 1e-9))
+    reach, outer = _cells(reach_m, resolution), _cells(reach_m + prims.finger_thickness, resolution)
     dr, dc = _line_offsets(round(float(yaw), 9), outer)  # (2, outer): side +1 then side -1
     rr, cc = row + dr, col + dc
     if not ((rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)).all():
