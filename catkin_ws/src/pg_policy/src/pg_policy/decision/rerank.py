@@ -1,6 +1,6 @@
 """Re-rank the best cells of a Q map by a yes/no test, keeping the best value: shared by the test-time checks
 (pg_policy.decision.rules.grasp_check on Q_g, pg_policy.decision.rules.edge_guard on Q_p), and over candidates a rule
-proposes (pg_policy.decision.rules.rim_search)."""
+proposes (pg_policy.decision.rules.grasp_search)."""
 
 from __future__ import annotations
 

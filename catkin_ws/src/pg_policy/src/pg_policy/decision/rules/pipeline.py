@@ -15,7 +15,7 @@ grasp all the same (its push budget is spent), `forced_grasp` re-ranks Q_g by th
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
@@ -148,19 +148,25 @@ class RulePipeline:
         region = ctx.region(primitive)
         top_k = max(r.top_k for r, _ in tested)
         hard = [(r, t) for r, t in tested if not r.rule_kind().soft]
-        with timer.charge("rerank", exclusive=True):
-            ranked, rank = rerank(q, region, conjunction([t for _, t in tested]), top_k)
-            if rank is None and len(hard) < len(tested):  # no candidate passes the preferences: the checks alone
-                ranked, rank = rerank(q, region, conjunction([t for _, t in hard]) if hard else _any, top_k)
+        tests = [conjunction([t for _, t in tested])]
+        if len(hard) < len(tested):  # no candidate passes the preferences: the checks alone
+            tests.append(conjunction([t for _, t in hard]) if hard else _any)
+
+        def first_passing(walk: Callable[[CandidateTest], tuple[np.ndarray, int | None]]) -> tuple[np.ndarray,
+                                                                                                  int | None]:
+            with timer.charge("rerank", exclusive=True):
+                for test in tests:
+                    ranked, rank = walk(test)
+                    if rank is not None:
+                        break
+            return ranked, rank
+
+        ranked, rank = first_passing(lambda test: rerank(q, region, test, top_k))
         if rank is None:
             offered = [p for r in rules if (p := r.proposals(ctx)) is not None and len(p[0])]
             if offered:
                 candidates = tuple(np.concatenate([p[i] for p in offered]) for i in range(3))
-                with timer.charge("rerank", exclusive=True):
-                    ranked, rank = rerank_among(q, region, conjunction([t for _, t in tested]), candidates)
-                    if rank is None and len(hard) < len(tested):
-                        ranked, rank = rerank_among(q, region, conjunction([t for _, t in hard]) if hard else _any,
-                                                    candidates)
+                ranked, rank = first_passing(lambda test: rerank_among(q, region, test, candidates))
         vetoed = rank is None and bool((region[None] & np.isfinite(ranked)).any())
         return MapOutcome(ranked, shown, rank or 0, vetoed, [r for r, _ in hard if r.vetoes_grasp])
 
