@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from pg_core.heightmap import Heightmap
-from pg_policy.perception.segmentation import JOIN_GAP_M, segment_at, segment_objects
+from pg_policy.perception.long_pieces import JOIN_GAP_M
+from pg_policy.perception.segmentation import segment_at, segment_objects
 
 RES = 0.002  # m per cell
 BLUE, RED = (40, 90, 200), (220, 40, 40)
