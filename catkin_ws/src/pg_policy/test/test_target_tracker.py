@@ -198,6 +198,20 @@ def test_a_target_carried_beyond_reach_is_re_found_by_appearance_unless_another_
     assert not track.mask.any() and "not found" in track.why
 
 
+def test_a_target_carried_beyond_reach_is_re_found_among_what_moved_not_in_a_look_alike_that_did_not():
+    tracker = TargetTracker()
+    first = _blocks((20, 20, RED), (150, 150, RED))
+    tracker.start(first, (np.asarray(first.height) > 0) & (np.arange(224)[:, None] < 100))
+    track = tracker.update(_blocks((20, 170, RED), (150, 150, RED)))  # the look-alike stayed where it was
+    assert track.mask[25, 175] and not track.mask[155, 155] and track.unsure and "re-found" in track.why
+    track = tracker.update(_blocks((20, 170, RED), (150, 150, RED)))  # still compared with where it was last found
+    assert track.mask[25, 175] and not track.mask[155, 155], track.why
+    tracker = TargetTracker()
+    tracker.start(first, (np.asarray(first.height) > 0) & (np.arange(224)[:, None] < 100))
+    track = tracker.update(_blocks((20, 170, RED), (150, 100, RED)))  # both moved: not told apart
+    assert not track.mask.any() and "not found" in track.why
+
+
 def test_a_target_that_did_not_move_keeps_its_cells_when_a_look_alike_is_pushed_against_it():
     tracker = TargetTracker()
     first = _blocks((100, 100, RED), (100, 160, RED))

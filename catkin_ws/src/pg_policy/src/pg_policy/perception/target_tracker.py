@@ -46,8 +46,10 @@ FOUND_SCORE. When none does and unsure tracks have led away from where a sure tr
 look-alike, which a grasp may then have lifted), the segments are scored against that place, unmoved, and the best
 reaching FOUND_SCORE is the target, unsure ("where it was last sure"). When no segment is found near the expected
 place (the target was carried farther than predicted, or the track followed a neighbour that was then lifted away),
-the target is looked for anywhere by appearance alone: the segment whose mean of colour and form reaches
-REFIND_SCORE with no other segment within REFIND_MARGIN of it is re-found, unsure ("re-found by appearance");
+the target is looked for anywhere by appearance alone among the segments that moved since it was last found (a
+segment with UNMOVED_FRACTION of its cells unchanged since that view did not move, and the target did): the one
+whose mean of colour and form reaches REFIND_SCORE with no other within REFIND_MARGIN of it is re-found, unsure
+("re-found by appearance");
 objects alike in colour and form are never re-found this way. A found track is unsure when its score stays under
 SURE_SCORE or the runner-up comes within MARGIN of it. Objects of one colour are told apart by form and place alone.
 The appearance stays that of the first view; the place follows every found track. A target not found leaves the
@@ -95,6 +97,7 @@ MERGE_RATIO = 3.5  # a segment over this many times the reference area that over
 CROP_CELLS = 3  # a merged segment is cut to its cells within this many cells of the predicted mask
 REFIND_SCORE = 0.8  # a target not found near its place is re-found where colour and form alone score this much
 REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
+UNMOVED_FRACTION = 0.5  # a segment with this share of its cells unchanged since the target was last found: unmoved
 STILL_DEPTH_M = 0.003  # a cell is unchanged between two views when its height differs by less than this (m) ...
 STILL_COLOUR = 10.0  # ... and its Lab colour (lightness weighted) by less than this
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
@@ -199,12 +202,12 @@ class TargetTracker:
             if again and again[0][0] >= FOUND_SCORE:
                 scored, where = again, "where it was last sure: "
         if not scored:
-            return self._refind(hm, labels, lab, f"no object within {GATE_M + math.hypot(dx, dy):.2f} m of where "
-                                "it was expected")
+            return self._refind(hm, labels, lab, others, f"no object within {GATE_M + math.hypot(dx, dy):.2f} m "
+                                "of where it was expected")
         best, terms, mask, merged = scored[0][0], scored[0][2], scored[0][3], scored[0][4]
         detail = "colour {:.2f} form {:.2f} overlap {:.2f} near {:.2f}".format(*terms)
         if best < FOUND_SCORE:
-            return self._refind(hm, labels, lab, f"best segment scores {best:.2f} < {FOUND_SCORE} ({detail})")
+            return self._refind(hm, labels, lab, others, f"best segment scores {best:.2f} < {FOUND_SCORE} ({detail})")
         self._found(hm, mask, lab)
         runner = scored[1][0] if len(scored) > 1 else 0.0
         if merged:
@@ -318,12 +321,16 @@ class TargetTracker:
         """Remember `mask` as the target's place, seen in `hm` (`lab`: its Lab image)."""
         self.last_mask, self.last_hm, self.last_lab = mask.copy(), hm, lab
 
-    def _refind(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, why: str) -> Track:
-        """The target looked for anywhere by appearance (module docstring), or an empty track saying `why` not."""
+    def _refind(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, others: np.ndarray, why: str) -> Track:
+        """The target looked for anywhere by appearance (module docstring) among the segments that moved since it
+        was last found (less than UNMOVED_FRACTION of their cells in `others`, the (H, W) bool cells of other
+        objects unchanged since that view), or an empty track saying `why` not."""
         assert self.reference is not None and self.last_mask is not None
         ref, scored = self.reference, []
         for label in range(1, int(labels.max()) + 1):
             seg = labels == label
+            if (seg & others).sum() >= UNMOVED_FRACTION * seg.sum():
+                continue  # it did not move since the target was last found: not the target, which did
             colour, form, _, _ = self._terms(describe(hm, seg, lab), seg, seg, (0.0, 0.0), ref)
             scored.append(((colour + form) / 2.0, colour, form, seg))
         scored.sort(key=lambda s: s[0], reverse=True)
