@@ -157,3 +157,29 @@ def test_a_vessels_floor_belongs_to_the_vessel_and_what_lies_in_it_stays_apart()
     assert block.sum() >= 64 and not (block & bowl).any()
     with pytest.raises(ValueError, match="bare table"):
         segment_at(hm, 5, 5)
+
+
+def _hm(h: np.ndarray, colour: np.ndarray) -> Heightmap:
+    return Heightmap(colour, h, np.ones_like(h, bool), 0.002, np.array([[0.0, 0.12], [0.0, 0.12], [0.0, 0.3]]))
+
+
+def test_a_click_on_the_sliver_of_an_object_under_a_taller_look_alike_names_the_sliver():
+    h = np.zeros((60, 60), np.float32)
+    colour = np.full((60, 60, 3), 200, np.uint8)
+    h[10:40, 15:45], colour[10:40, 15:45] = 0.04, (40, 90, 200)  # a blue block 4 cm high ...
+    h[40:44, 15:45], colour[40:44, 15:45] = 0.015, (40, 90, 200)  # ... over a blue one 1.5 cm high: a sliver shows
+    hm = _hm(h, colour)
+    labels = segment_objects(hm)
+    assert labels[42, 30] == labels[20, 30] != 0  # one segment: the sliver has no core of its own
+    sliver = segment_at(hm, 42, 30)
+    assert sliver[40:44, 16:44].all() and not sliver[10:39].any()
+    assert segment_at(hm, 20, 30)[42, 30]  # a click on the block on top names the segment, as before
+
+
+def test_a_click_low_on_a_tilted_top_names_the_whole_object():
+    h = np.zeros((60, 60), np.float32)
+    colour = np.full((60, 60, 3), 200, np.uint8)
+    h[10:50, 15:45] = np.linspace(0.01, 0.05, 40, dtype=np.float32)[:, None]  # a top rising 4 cm over 8 cm
+    colour[10:50, 15:45] = (40, 90, 200)
+    block = segment_at(_hm(h, colour), 12, 30)
+    assert block[10:50, 16:44].all()

@@ -77,6 +77,9 @@ SNAP_RADIUS_CELLS = 2  # `segment_at` on an unlabelled object cell takes the obj
 SEGMENT_HEIGHT_M = 0.004  # cells higher than this (m above the table) hold an object; 8 mm left flat utensils out
 THIN_HEIGHT_M = 0.002  # cells higher than this hold an object when their colour stands out from the table's
 TABLE_HEIGHT_M = 0.001  # cells this low or lower are table: their median colour is the table's
+LOW_BAND_M = 0.006  # a clicked piece: the segment's cells within this height (m) of the clicked cell, connected
+LOW_STEP_M = 0.01  # ... that lies this much (m, medians) under the rest of its segment names itself
+LOW_EDGE_M = 0.008  # ... and meets the rest at a step this high (m, medians of the cells along their border)
 MIN_TABLE_CELLS = 100  # fewer table cells than this in view: the table's colour is unknown (thin cells left out)
 CENTRE_OFFSET_CELLS = 5  # `centred_on`: a click this far (1 cm) or nearer to its segment's centroid names it whole
 CUT_CENTROID_DEPTH_CELLS = 3.0  # `centred_on`: the segment's centroid lies this far (cells) inside it, or no cut
@@ -252,6 +255,8 @@ def segment_at(hm: Heightmap, row: int, col: int, labels: np.ndarray | None = No
     label = int(labels[row, col])
     if label != 0:
         own = _own_piece(hm, labels == label, row, col)
+        if own is None:
+            own = _low_piece(hm, labels == label, row, col)
         if own is not None:
             return own
     if label == 0:
@@ -284,6 +289,30 @@ def _own_piece(hm: Heightmap, segment: np.ndarray, row: int, col: int) -> np.nda
         return None
     if float(np.linalg.norm(np.median(chroma[piece], axis=0) - np.median(chroma[rest], axis=0))) < COLOUR_EDGE:
         return None
+    return piece
+
+
+def _low_piece(hm: Heightmap, segment: np.ndarray, row: int, col: int) -> np.ndarray | None:
+    """(H, W) bool: the clicked piece of `segment` when it lies LOW_STEP_M or more under the rest (a sliver of an
+    object under a neighbour of its colour), or None. The piece: the segment's cells within LOW_BAND_M of the
+    clicked cell's height, 8-connected to it; it must touch the segment's outside (a vessel's floor does not)."""
+    height = np.asarray(hm.height, np.float32)
+    band = segment & (np.abs(height - height[row, col]) <= LOW_BAND_M)
+    _, parts = cv2.connectedComponents(band.astype(np.uint8), connectivity=8)
+    piece = parts == parts[row, col]
+    rest = segment & ~piece
+    if rest.sum() < MIN_OBJECT_CELLS or piece.sum() < MIN_OBJECT_CELLS:
+        return None
+    if float(np.median(height[rest]) - np.median(height[piece])) < LOW_STEP_M:
+        return None
+    k3 = np.ones((3, 3), np.uint8)
+    rest_edge = rest & (cv2.dilate(piece.astype(np.uint8), k3) > 0)
+    piece_edge = piece & (cv2.dilate(rest.astype(np.uint8), k3) > 0)
+    if float(np.median(height[rest_edge]) - np.median(height[piece_edge])) < LOW_EDGE_M:
+        return None  # the two meet on a slope (a tilted top), not at a step
+    outside = cv2.dilate((~ndimage.binary_fill_holes(segment)).astype(np.uint8), k3) > 0
+    if not (piece & outside).any():
+        return None  # enclosed by the rest: a vessel's floor
     return piece
 
 
