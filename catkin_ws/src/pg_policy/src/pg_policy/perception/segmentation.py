@@ -39,7 +39,11 @@ the label's cells within COLOUR_EDGE of the chroma (Lab a, b) around the click, 
 of the label differs from that piece in median chroma by at least COLOUR_EDGE, the clicked object is the piece,
 not the label; the same holds for a click on the object on top, whose label took the sliver in. Lightness is left
 out (shading on one object changes it), so objects told apart by lightness alone stay merged, and a click on a
-printed part of a real object names that part.
+printed part of a real object names that part. Where chroma tells nothing (a sliver under a look-alike of its
+colour), height does: the label's cells within LOW_BAND_M of the clicked cell's height, 8-connected to it, are the
+clicked object when they lie LOW_STEP_M or more under the rest of the label (medians), meet it at a step of at least
+LOW_EDGE_M (the medians of the cells along their border: a tilted top, a slope, is not cut) and touch the label's
+outside (a vessel's floor, enclosed by its wall, is not cut).
 
 Touching objects of the same height AND colour are told apart only by the gap of invalid or darker side cells the
 camera sees between them; where none is seen they share one label. A click names the object centred on it
