@@ -5,8 +5,9 @@ A request names its target in one of three ways:
   pg_core.target_mask.target_mask(color, valid, name), exactly as for a colour request before;
 - `PointTarget(x, y)`: the object under the point (x, y), metres in `world` (e.g. a click on the camera image
   projected to the table); on the first observation the mask is pg_policy.perception.segmentation.segment_at of the
-  point's cell cut to the object centred on the point (`centred_on`: a look-alike touching it in one segment is
-  left out), on later ones pg_policy.perception.target_tracker.TargetTracker keeps it on the same object;
+  point's cell, cut at the necks where look-alikes touch it (pg_policy.perception.necks.cut_at_neck) and then to
+  the object centred on the point (`centred_on`: a look-alike touching it side by side in one segment is left
+  out), on later ones pg_policy.perception.target_tracker.TargetTracker keeps it on the same object;
 - `MaskTarget(mask)`: the object a (H, W) bool mask over the heightmap grid mostly covers; on the first
   observation the mask is refined to the object segment holding most of its cells, then tracked as a point is.
 
@@ -31,6 +32,7 @@ import numpy as np
 
 from pg_core.heightmap import Heightmap, world_to_pixel
 from pg_core.target_mask import hsv_window, target_mask
+from pg_policy.perception.necks import cut_at_neck
 from pg_policy.perception.push_shift import push_shift
 from pg_policy.perception.segmentation import centred_on, segment_at, segment_objects
 from pg_policy.perception.target_tracker import TargetTracker, Track
@@ -102,7 +104,9 @@ def first_mask(hm: Heightmap, target: PointTarget | MaskTarget) -> np.ndarray:
             segment = segment_at(hm, row, col, labels)
         except ValueError as exc:
             raise ValueError(f"PointTarget ({target.x:.3f}, {target.y:.3f}) m names no object: {exc}") from None
-        return centred_on(segment, row, col) if segment[row, col] else segment  # a snapped click: the segment whole
+        if not segment[row, col]:
+            return segment  # a snapped click: the segment whole
+        return centred_on(cut_at_neck(segment, row, col), row, col)
     mask = np.asarray(target.mask).astype(bool)
     if mask.shape != labels.shape:
         raise ValueError(f"MaskTarget.mask shape {mask.shape} differs from the heightmap's {labels.shape}")
