@@ -134,6 +134,7 @@ def test_point_and_mask_targets_reach_the_policy_as_masks(spec) -> None:
     loop.policy.act = lambda obs: (masks.append(obs.mask), act(obs))[1]
     res = loop.run(spec)
     assert res.success and len(ex.calls) == 2, res.message
+    assert "in doubt" not in res.message  # a sure track: the answer says the target was grasped, nothing more
     assert np.array_equal(masks[0], box) and np.array_equal(records[0].target_mask, box)
     assert records[0].target_pixels == 400 and records[1].target_grasped
     assert records[0].target == target_label(spec)
@@ -156,8 +157,10 @@ def test_an_unsure_track_is_in_the_note(monkeypatch: pytest.MonkeyPatch) -> None
     monkeypatch.setattr(TargetFollower, "unsure", property(lambda self: self.track is not None))
     monkeypatch.setattr(TargetFollower, "why", property(lambda self: "runner-up within 0.02"))
     loop, _, _, records = make([(True, True, True)])
-    loop.run(PointTarget(*BOX_XY))
+    res = loop.run(PointTarget(*BOX_XY))
     assert records[0].note.startswith("target track unsure: runner-up within 0.02")
+    assert res.success and res.message.endswith(
+        "grasped; the track was in doubt at that grasp (runner-up within 0.02): the object held may be another one")
     loop, _, _, _ = make([(True, True, True)])  # the first one's target was lifted
     assert loop.infer(PointTarget(*BOX_XY)).note.startswith("target track unsure: ")
 

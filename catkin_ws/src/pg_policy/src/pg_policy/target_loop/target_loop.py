@@ -13,8 +13,10 @@ Targets: a colour name (str) or a pg_policy.target_loop.target_spec spec (Colour
 A colour goes the colour path (the mask of every heightmap is the palette colour's cells, the policy finds the
 target by its name). A point or a mask gets a TargetFollower per call: its mask of each heightmap goes to the
 episode and to the policy (`PolicyObservation.mask`); a track in doubt is said in the record's note ("target track
-unsure: <why>"). A point or mask the first heightmap refuses (off the grid, bare table, covering no object) raises
-TargetRefused, before anything moves, its message naming the spec's field.
+unsure: <why>"), and a call that ends with a grasp made in doubt says so in its message ("...; the track was in
+doubt at that grasp (<why>): the object held may be another one"): a real robot cannot tell which object it lifted.
+A point or mask the first heightmap refuses (off the grid, bare table, covering no object) raises TargetRefused,
+before anything moves, its message naming the spec's field.
 
 A target not visible on the first heightmap of a call is refused before anything moves (LoopError). Once the call
 has acted, a hidden target is searched for where it was last seen (pg_policy.perception.target_memory; the policy
@@ -79,6 +81,7 @@ from pg_policy.target_loop.worker import PinnedThread
 TARGET_GONE_FRACTION = 0.2
 MAX_FAILED_PRIMITIVES = 3  # refused/aborted primitives in a row that end a call (a deterministic policy repeats)
 RESET_MESSAGE = "the scene was reset during the call"
+UNSURE_NOTE = "target track unsure: "  # a decision note's start while a point or mask target's track is in doubt
 
 
 class TargetLoop:
@@ -181,7 +184,7 @@ class TargetLoop:
         self.last_q = self.policy.q_maps()
         note = str(getattr(self.policy, "last_note", ""))
         if follower is not None and follower.unsure:
-            note = "; ".join(n for n in (f"target track unsure: {follower.why}", note) if n)
+            note = "; ".join(n for n in (f"{UNSURE_NOTE}{follower.why}", note) if n)
         rec = ActionRecord(episode, index, target, self.policy_name, decision, shm.stamp, self.clock(), pixels,
                            self.threshold, note=note, target_mask=mask if follower is not None else None)
         if self.on_decision:
@@ -264,6 +267,9 @@ class TargetLoop:
             ep.stop(ERROR, f"stopped after {len(res.actions)} actions: {exc}")
         ep.over()
         res.success, res.message, res.termination = ep.termination == COMPLETED, ep.why, ep.termination
+        if res.success and res.actions and res.actions[-1].note.startswith(UNSURE_NOTE):
+            doubt = res.actions[-1].note.split("; ")[0][len(UNSURE_NOTE):]
+            res.message += f"; the track was in doubt at that grasp ({doubt}): the object held may be another one"
         res.grasps, res.pushes, res.failed_grasps, res.refused = ep.grasps, ep.pushes, ep.failed_grasps, ep.refused
         res.duration, res.wall_time = self.clock() - t0, time.monotonic() - wall0
         return res
