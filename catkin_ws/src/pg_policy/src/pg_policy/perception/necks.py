@@ -14,7 +14,9 @@ clicked cell (row, col) in it, and returns the (H, W) bool part of it that the c
    them to under NECK_RATIO of the narrower one's width);
 3. the segment is split among the clicked peak and those neighbours by a watershed of the distance from the
    components of step 2 (every cell follows the steepest ascent of the distance to a top, `_basins`), and the
-   clicked part is returned.
+   clicked part is returned. The watershed is written here because the libraries' gave other basins on these
+   distance maps: scipy.ndimage.watershed_ift let a marker flood across a neck into a neighbour's plateau, and
+   cv2.watershed floods by the difference between neighbouring cells, not by their elevation.
 
 The segment is returned whole when no neighbour is apart from the clicked peak, when the clicked peak itself is
 not object-sized (a click on a thin part), or when the clicked part would hold fewer than MIN_PART_CELLS cells.
