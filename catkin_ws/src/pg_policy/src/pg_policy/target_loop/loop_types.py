@@ -84,6 +84,8 @@ class ActionRecord:
     note: str = ""  # why the policy took the decision (its last_note), e.g. "target hidden: searching where ..."
     # (H, W) bool target mask the decision was taken on, for point and mask targets (None: colour, `target`'s cells)
     target_mask: np.ndarray | None = field(default=None, repr=False)
+    # why the track of a point or mask target was in doubt at the decision ("": sure, or a colour target)
+    track_doubt: str = ""
 
 
 @dataclass

@@ -81,7 +81,6 @@ from pg_policy.target_loop.worker import PinnedThread
 TARGET_GONE_FRACTION = 0.2
 MAX_FAILED_PRIMITIVES = 3  # refused/aborted primitives in a row that end a call (a deterministic policy repeats)
 RESET_MESSAGE = "the scene was reset during the call"
-UNSURE_NOTE = "target track unsure: "  # a decision note's start while a point or mask target's track is in doubt
 
 
 class TargetLoop:
@@ -183,10 +182,12 @@ class TargetLoop:
         decision = self.policy.act(obs)
         self.last_q = self.policy.q_maps()
         note = str(getattr(self.policy, "last_note", ""))
-        if follower is not None and follower.unsure:
-            note = "; ".join(n for n in (f"{UNSURE_NOTE}{follower.why}", note) if n)
+        doubt = follower.why if follower is not None and follower.unsure else ""
+        if doubt:
+            note = "; ".join(n for n in (f"target track unsure: {doubt}", note) if n)
         rec = ActionRecord(episode, index, target, self.policy_name, decision, shm.stamp, self.clock(), pixels,
-                           self.threshold, note=note, target_mask=mask if follower is not None else None)
+                           self.threshold, note=note, target_mask=mask if follower is not None else None,
+                           track_doubt=doubt)
         if self.on_decision:
             self.on_decision(rec, shm)
         return rec
@@ -267,9 +268,9 @@ class TargetLoop:
             ep.stop(ERROR, f"stopped after {len(res.actions)} actions: {exc}")
         ep.over()
         res.success, res.message, res.termination = ep.termination == COMPLETED, ep.why, ep.termination
-        if res.success and res.actions and res.actions[-1].note.startswith(UNSURE_NOTE):
-            doubt = res.actions[-1].note.split("; ")[0][len(UNSURE_NOTE):]
-            res.message += f"; the track was in doubt at that grasp ({doubt}): the object held may be another one"
+        if res.success and res.actions and res.actions[-1].track_doubt:
+            res.message += (f"; the track was in doubt at that grasp ({res.actions[-1].track_doubt}): "
+                            "the object held may be another one")
         res.grasps, res.pushes, res.failed_grasps, res.refused = ep.grasps, ep.pushes, ep.failed_grasps, ep.refused
         res.duration, res.wall_time = self.clock() - t0, time.monotonic() - wall0
         return res
