@@ -47,6 +47,7 @@ COMMANDS: dict[str, Command] = {
     "calibrate": Command("pg_learning", "pg_learning.cli.calibrate:add_parser", LEARNING),
     "robustness": Command("pg_learning", "pg_learning.cli.robustness:add_parser", LEARNING),
     "policies": Command("pg_policy", "pg_policy.cli.policies:add_parser"),
+    "train-segmenter": Command("pg_learning", "pg_learning.cli.train_segmenter:add_parser", LEARNING),
 }
 
 

@@ -32,9 +32,10 @@ import numpy as np
 
 from pg_core.heightmap import Heightmap, world_to_pixel
 from pg_core.target_mask import hsv_window, target_mask
+from pg_policy.models.click_segmentation import shipped as click_segmenter
 from pg_policy.perception.necks import cut_at_neck
 from pg_policy.perception.push_shift import push_shift
-from pg_policy.perception.segmentation import centred_on, segment_at, segment_objects
+from pg_policy.perception.segmentation import MIN_OBJECT_CELLS, centred_on, segment_at, segment_objects
 from pg_policy.perception.target_tracker import TargetTracker, Track
 
 
@@ -104,6 +105,11 @@ def first_mask(hm: Heightmap, target: PointTarget | MaskTarget) -> np.ndarray:
             segment = segment_at(hm, row, col, labels)
         except ValueError as exc:
             raise ValueError(f"PointTarget ({target.x:.3f}, {target.y:.3f}) m names no object: {exc}") from None
+        learned = click_segmenter()
+        if learned is not None:
+            mask = learned.mask(hm, row, col)
+            if int(mask.sum()) >= MIN_OBJECT_CELLS:
+                return mask
         if not segment[row, col]:
             return segment  # a snapped click: the segment whole
         return centred_on(cut_at_neck(segment, row, col), row, col)

@@ -1,0 +1,119 @@
+"""The object under a clicked cell, segmented by the learned click-conditioned segmenter.
+
+`ClickSegmentation(path)` loads a TorchScript pg_policy.models.nets.click_segmenter.ClickSegmenter (the shipped one:
+`shipped()`, pg_policy/models/click-segmenter/click_segmenter.pt, trained on simulated views of the training objects
+by `pushgrasp train-segmenter`). `mask(hm, row, col)` runs it on the window of WINDOW cells centred on the cell and
+keeps the cells it scores above THRESHOLD that are valid and 8-connected to the clicked cell (or, when the click
+itself scores under it, to the nearest such cell within SNAP_CELLS). The net sees colour, height and validity: it
+joins an object's parts of two heights or two colours (a mug's rim and floor, a tool's handle and blade) and splits
+touching objects that a height-and-colour segmentation joins, as far as its training views taught it.
+
+Frames and units: (H, W) grids of pg_core.heightmap (rows along y, columns along x); heights in metres.
+Deterministic on CPU (one thread set by the caller's torch). Raised: FileNotFoundError for a missing model file,
+ValueError for a cell outside the grid.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+import cv2
+import numpy as np
+import torch
+
+from pg_core.heightmap import Heightmap
+from pg_core.resources import shipped_models
+from pg_policy.models.nets.click_segmenter import encode_window, paste_window
+
+WINDOW = 128  # cells (a multiple of 8), the window the shipped net was trained on
+THRESHOLD = 0.5  # a cell belongs to the object when the net's probability reaches this
+SNAP_CELLS = 3  # a click the net leaves out snaps to its nearest object cell within this many cells
+JOIN_SHARE = 0.6  # `join_parts`: segments are one object when the net clicked on each covers this share of the other
+FILE = "click_segmenter.pt"
+
+
+def shipped_path() -> Path:
+    """The shipped model file (pg_policy/models/click-segmenter/click_segmenter.pt)."""
+    return shipped_models() / "click-segmenter" / FILE
+
+
+class ClickSegmentation:
+    """The learned segmenter of one model file (module docstring)."""
+
+    def __init__(self, path: str | Path) -> None:
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"click segmenter model not found: {path}")
+        self.path = path
+        self.net = torch.jit.load(str(path), map_location="cpu").eval()
+
+    def probability(self, hm: Heightmap, row: int, col: int) -> np.ndarray:
+        """(H, W) float32 probability that each cell belongs to the object at (row, col) (0 outside the window)."""
+        height = np.asarray(hm.height, np.float32)
+        if not (0 <= row < height.shape[0] and 0 <= col < height.shape[1]):
+            raise ValueError(f"cell (row {row}, col {col}) lies outside the {height.shape[0]} x {height.shape[1]} "
+                             "heightmap")
+        x = encode_window(np.asarray(hm.color), height, np.asarray(hm.valid, bool), row, col, WINDOW)
+        with torch.no_grad():
+            logits = self.net(torch.from_numpy(x)[None])[0, 0].numpy()
+        return paste_window(1.0 / (1.0 + np.exp(-logits)), height.shape, row, col).astype(np.float32)
+
+    def mask(self, hm: Heightmap, row: int, col: int) -> np.ndarray:
+        """(H, W) bool: the object at (row, col) (module docstring); empty when the net finds none there."""
+        keep = (self.probability(hm, row, col) >= THRESHOLD) & np.asarray(hm.valid, bool)
+        _, parts = cv2.connectedComponents(keep.astype(np.uint8), connectivity=8)
+        label = int(parts[row, col])
+        if label == 0:
+            k = SNAP_CELLS
+            r0, c0 = max(row - k, 0), max(col - k, 0)
+            near = np.argwhere(parts[r0:row + k + 1, c0:col + k + 1] > 0)
+            if len(near) == 0:
+                return np.zeros_like(keep)
+            best = near[np.argmin(((near - [row - r0, col - c0]) ** 2).sum(axis=1))]
+            label = int(parts[r0 + best[0], c0 + best[1]])
+        return parts == label
+
+
+    def join_parts(self, hm: Heightmap, labels: np.ndarray) -> np.ndarray:
+        """(H, W) int32 labels: the segments of `labels` (pg_policy.perception.segmentation.segment_objects, 0 none)
+        joined where they are parts of one object: the net clicked at each segment's innermost cell covers
+        JOIN_SHARE or more of the other's cells, both ways (a mug's rim and floor, a tool's handle and blade; two
+        look-alikes stacked or side by side stay apart unless the net takes them for one). A joined segment takes
+        the lowest label of its parts."""
+        labels = np.asarray(labels)
+        ids = [k for k in range(1, int(labels.max()) + 1) if (labels == k).any()]
+        covers = {}
+        for k in ids:
+            seg = labels == k
+            inside = cv2.distanceTransform(np.pad(seg, 1).astype(np.uint8), cv2.DIST_L2, 3)[1:-1, 1:-1]
+            row, col = np.unravel_index(int(np.argmax(inside)), inside.shape)
+            covers[k] = self.mask(hm, int(row), int(col))
+        root = {k: k for k in ids}
+
+        def find(k: int) -> int:
+            while root[k] != k:
+                k = root[k]
+            return k
+
+        sizes = {k: int((labels == k).sum()) for k in ids}
+        for a in ids:
+            for b in ids:
+                if b <= a:
+                    continue
+                ab = int((covers[a] & (labels == b)).sum()) >= JOIN_SHARE * sizes[b]
+                ba = int((covers[b] & (labels == a)).sum()) >= JOIN_SHARE * sizes[a]
+                if ab and ba:
+                    ra, rb = find(a), find(b)
+                    root[max(ra, rb)] = min(ra, rb)
+        out = labels.astype(np.int32).copy()
+        for k in ids:
+            out[labels == k] = find(k)
+        return out
+
+
+@lru_cache(maxsize=1)
+def shipped() -> ClickSegmentation | None:
+    """The shipped segmenter, loaded once; None when no model ships (the geometric segmentation is used)."""
+    path = shipped_path()
+    return ClickSegmentation(path) if path.is_file() else None

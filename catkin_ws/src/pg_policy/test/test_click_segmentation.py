@@ -1,0 +1,79 @@
+"""The click-conditioned segmenter's window encoding and its post-processing (a scripted stand-in net)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from pg_core.heightmap import Heightmap
+from pg_policy.models.nets.click_segmenter import IN_CHANNELS, ClickSegmenter, encode_window, paste_window
+from pg_policy.models.click_segmentation import ClickSegmentation
+
+RES = 0.002
+BOUNDS = np.array([[-0.224, 0.224], [-0.224, 0.224], [0.0, 0.4]])
+
+
+def _hm(height: np.ndarray, color: np.ndarray | None = None) -> Heightmap:
+    if color is None:
+        color = np.full(height.shape + (3,), 200, np.uint8)
+    return Heightmap(color, height.astype(np.float32), np.ones(height.shape, bool), RES, BOUNDS)
+
+
+def test_window_round_trip_and_edges():
+    rng = np.random.default_rng(0)
+    color = rng.integers(0, 255, (224, 224, 3), dtype=np.uint8)
+    height = rng.random((224, 224)).astype(np.float32) * 0.05
+    valid = rng.random((224, 224)) > 0.1
+    x = encode_window(color, height, valid, 5, 220, 64)  # a corner: most of the window lies off the grid
+    assert x.shape == (IN_CHANNELS, 64, 64) and x.dtype == np.float32
+    assert x[5, 32, 32] == pytest.approx(1.0)  # the click's Gaussian peaks at the window's centre
+    assert np.allclose(x[0, 27:, :36], color[:37, 188:, 0] / 255.0)  # rows 0..36, cols 188..223 of the grid
+    assert not x[:5, :27].any() and not x[:5, :, 36:].any()  # off the grid: zero
+    back = paste_window(x[3], (224, 224), 5, 220)
+    assert np.allclose(back[:37, 188:], height[:37, 188:] / 0.1)
+    assert not back[37:].any() and not back[:, :188].any()
+
+
+class _Threshold(torch.nn.Module):
+    """A stand-in net: logits = +1 where the height channel exceeds 0.1 (1 cm), else -1."""
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return torch.where(x[:, 3:4] > 0.1, 1.0, -1.0)
+
+
+@pytest.fixture
+def threshold_model(tmp_path):
+    path = tmp_path / "net.pt"
+    torch.jit.script(_Threshold()).save(str(path))
+    return ClickSegmentation(path)
+
+
+def test_mask_keeps_the_clicked_component(threshold_model):
+    height = np.zeros((224, 224))
+    height[50:70, 50:70] = 0.03  # the clicked block
+    height[50:70, 80:100] = 0.03  # another, apart
+    mask = threshold_model.mask(_hm(height), 60, 60)
+    assert mask[50:70, 50:70].all() and mask.sum() == 400  # the other block is not connected: left out
+
+
+def test_click_beside_the_object_snaps_or_finds_nothing(threshold_model):
+    height = np.zeros((224, 224))
+    height[50:70, 50:70] = 0.03
+    assert threshold_model.mask(_hm(height), 71, 60).sum() == 400  # 2 cells off the border: snapped
+    assert not threshold_model.mask(_hm(height), 120, 120).any()  # bare table: nothing
+
+
+def test_refusals(tmp_path, threshold_model):
+    with pytest.raises(FileNotFoundError, match="not found"):
+        ClickSegmentation(tmp_path / "missing.pt")
+    with pytest.raises(ValueError, match="outside"):
+        threshold_model.mask(_hm(np.zeros((224, 224))), 224, 3)
+
+
+def test_untrained_net_runs_scripted(tmp_path):
+    torch.manual_seed(0)
+    path = tmp_path / "net.pt"
+    torch.jit.script(ClickSegmenter().eval()).save(str(path))
+    out = ClickSegmentation(path).probability(_hm(np.zeros((224, 224))), 100, 100)
+    assert out.shape == (224, 224) and np.all((out >= 0) & (out <= 1))
