@@ -7,8 +7,8 @@ import pytest
 import torch
 
 from pg_core.heightmap import Heightmap
-from pg_policy.models.nets.click_segmenter import IN_CHANNELS, ClickSegmenter, encode_window, paste_window
 from pg_policy.models.click_segmentation import ClickSegmentation
+from pg_policy.models.nets.click_segmenter import IN_CHANNELS, ClickSegmenter, encode_window, paste_window
 
 RES = 0.002
 BOUNDS = np.array([[-0.224, 0.224], [-0.224, 0.224], [0.0, 0.4]])
@@ -77,3 +77,32 @@ def test_untrained_net_runs_scripted(tmp_path):
     torch.jit.script(ClickSegmenter().eval()).save(str(path))
     out = ClickSegmentation(path).probability(_hm(np.zeros((224, 224))), 100, 100)
     assert out.shape == (224, 224) and np.all((out >= 0) & (out <= 1))
+
+
+def test_join_clicked_adds_the_parts_the_net_covers(threshold_model):
+    height = np.zeros((224, 224))
+    height[40:80, 40:80] = 0.06  # a vessel's wall ...
+    height[50:70, 50:70] = 0.02  # ... around its floor, 4 cm lower: two segments
+    height[40:80, 100:120] = 0.03  # another object, apart
+    labels = np.zeros((224, 224), np.int32)
+    labels[40:80, 40:80] = 1
+    labels[50:70, 50:70] = 2
+    labels[40:80, 100:120] = 3
+    first = labels == 1
+    mask = threshold_model.join_clicked(_hm(height), labels, first, 45, 60)
+    assert np.array_equal(mask, (labels == 1) | (labels == 2))  # the floor joins, the object apart does not
+    assert np.array_equal(threshold_model.join_clicked(_hm(height), labels, labels == 3, 60, 110), labels == 3)
+
+
+def test_join_parts_groups_mutually_covering_segments(threshold_model):
+    height = np.zeros((224, 224))
+    height[40:80, 40:80] = 0.06
+    height[50:70, 50:70] = 0.02
+    height[40:80, 100:120] = 0.03
+    labels = np.zeros((224, 224), np.int32)
+    labels[40:80, 40:80] = 2
+    labels[50:70, 50:70] = 5
+    labels[40:80, 100:120] = 3
+    joined = threshold_model.join_parts(_hm(height), labels)
+    assert set(np.unique(joined)) == {0, 2, 3}
+    assert (joined[50:70, 50:70] == 2).all() and (joined[40:80, 100:120] == 3).all()

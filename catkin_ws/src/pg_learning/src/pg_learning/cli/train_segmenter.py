@@ -33,8 +33,8 @@ def _run(args: argparse.Namespace) -> int:
     if config.view_seed < 0 or config.view_seed + config.collect > MIN_EVAL_SEED:
         raise ValueError(f"--view-seed {config.view_seed} + --collect {config.collect} must stay below {MIN_EVAL_SEED} "
                          "(the evaluation's seeds)")
-    if config.window % 8:
-        raise ValueError(f"--window {config.window} must be a multiple of 8")
+    if config.window % 32:
+        raise ValueError(f"--window {config.window} must be a multiple of 32")
     if config.collect:
         collect(config.families.split(","), config.view_seed, config.collect, config.views)
     if config.steps:

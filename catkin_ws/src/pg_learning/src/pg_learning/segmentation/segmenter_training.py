@@ -46,7 +46,7 @@ class SegmenterTraining:
     view_seed: int = _f(VIEW_SEED, "seed of the first view (view k: view_seed + k; below 1,000,000)")
     steps: int = _f(2000, "optimiser steps (0: collect the views only)")
     batch: int = _f(12, "examples (one clicked object each) per step")
-    window: int = _f(128, "window size in cells (a multiple of 8): objects up to 25 cm across")
+    window: int = _f(128, "window size in cells (a multiple of 32): objects up to 25 cm across")
     lr: float = _f(1e-3, "Adam learning rate (cosine-decayed to 5 % over the steps)")
     seed: int = _f(0, "draws the examples and the initial weights")
     checkpoint_every: int = _f(250, "steps between checkpoints (a rerun resumes from the last)")

@@ -26,10 +26,10 @@ from pg_core.heightmap import Heightmap
 from pg_core.resources import shipped_models
 from pg_policy.models.nets.click_segmenter import encode_window, paste_window
 
-WINDOW = 128  # cells (a multiple of 8), the window the shipped net was trained on
+WINDOW = 128  # cells (a multiple of 32), the window the shipped net was trained on
 THRESHOLD = 0.5  # a cell belongs to the object when the net's probability reaches this
 SNAP_CELLS = 3  # a click the net leaves out snaps to its nearest object cell within this many cells
-JOIN_SHARE = 0.6  # `join_parts`: segments are one object when the net clicked on each covers this share of the other
+JOIN_SHARE = 0.8  # `join_parts`: segments are one object when the net clicked on each covers this share of the other
 FILE = "click_segmenter.pt"
 
 
@@ -74,6 +74,20 @@ class ClickSegmentation:
             label = int(parts[r0 + best[0], c0 + best[1]])
         return parts == label
 
+
+    def join_clicked(self, hm: Heightmap, labels: np.ndarray, first: np.ndarray, row: int, col: int) -> np.ndarray:
+        """(H, W) bool: the clicked object's mask `first` (from the segments `labels`, 0 none) joined with every
+        other segment of `labels` that the net's mask of the click (row, col) covers JOIN_SHARE or more of: the
+        parts of the clicked object that the segmentation split from it (a mug's rim and floor, a tool's handle
+        and blade). The boundaries stay the segmentation's; the net only says which segments are one object."""
+        net = self.mask(hm, row, col)
+        out = np.asarray(first, bool).copy()
+        labels = np.asarray(labels)
+        for k in np.unique(labels[net & ~out]):
+            seg = labels == k
+            if k and int((net & seg).sum()) >= JOIN_SHARE * int(seg.sum()):
+                out |= seg
+        return out
 
     def join_parts(self, hm: Heightmap, labels: np.ndarray) -> np.ndarray:
         """(H, W) int32 labels: the segments of `labels` (pg_policy.perception.segmentation.segment_objects, 0 none)

@@ -35,7 +35,7 @@ from pg_core.target_mask import hsv_window, target_mask
 from pg_policy.models.click_segmentation import shipped as click_segmenter
 from pg_policy.perception.necks import cut_at_neck
 from pg_policy.perception.push_shift import push_shift
-from pg_policy.perception.segmentation import MIN_OBJECT_CELLS, centred_on, segment_at, segment_objects
+from pg_policy.perception.segmentation import centred_on, segment_at, segment_objects
 from pg_policy.perception.target_tracker import TargetTracker, Track
 
 
@@ -105,14 +105,9 @@ def first_mask(hm: Heightmap, target: PointTarget | MaskTarget) -> np.ndarray:
             segment = segment_at(hm, row, col, labels)
         except ValueError as exc:
             raise ValueError(f"PointTarget ({target.x:.3f}, {target.y:.3f}) m names no object: {exc}") from None
+        first = segment if not segment[row, col] else centred_on(cut_at_neck(segment, row, col), row, col)
         learned = click_segmenter()
-        if learned is not None:
-            mask = learned.mask(hm, row, col)
-            if int(mask.sum()) >= MIN_OBJECT_CELLS:
-                return mask
-        if not segment[row, col]:
-            return segment  # a snapped click: the segment whole
-        return centred_on(cut_at_neck(segment, row, col), row, col)
+        return first if learned is None else learned.join_clicked(hm, labels, first, row, col)
     mask = np.asarray(target.mask).astype(bool)
     if mask.shape != labels.shape:
         raise ValueError(f"MaskTarget.mask shape {mask.shape} differs from the heightmap's {labels.shape}")

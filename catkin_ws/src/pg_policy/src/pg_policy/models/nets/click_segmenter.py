@@ -1,7 +1,7 @@
 """The click-conditioned object segmenter: a small U-Net that maps a heightmap window and a clicked cell to the
 mask of the object under the click.
 
-Input (B, IN_CHANNELS, S, S) float32, S a multiple of 8 (the window, `encode_window`): colour RGB / 255 (3),
+Input (B, IN_CHANNELS, S, S) float32, S a multiple of 32 (the window, `encode_window`): colour RGB / 255 (3),
 height / HEIGHT_SCALE_M (1), valid (1, 0 or 1), the click as a Gaussian of CLICK_SIGMA_CELLS cells at its cell (1).
 Output (B, 1, S, S) float32 logits: > 0 where the cell belongs to the clicked object. GroupNorm (no batch
 statistics): a batch of one gives what it gives in a batch. ~0.1 M parameters.
@@ -16,7 +16,7 @@ from torch import nn
 IN_CHANNELS = 6
 HEIGHT_SCALE_M = 0.1  # heights are divided by this (m)
 CLICK_SIGMA_CELLS = 3.0  # the click channel's Gaussian (cells)
-WIDTHS = (12, 24, 48, 64)  # channels per level (three 2x downsamplings)
+WIDTHS = (12, 24, 48, 64, 64, 64)  # channels per level (five 2x downsamplings: the 128-cell window sees itself whole)
 
 
 def _block(cin: int, cout: int) -> nn.Sequential:
@@ -42,9 +42,8 @@ class ClickSegmenter(nn.Module):
     def __init__(self) -> None:
         super().__init__()
         w = WIDTHS
-        self.enc = nn.ModuleList([_block(IN_CHANNELS, w[0]), _block(w[0], w[1]), _block(w[1], w[2]),
-                                  _block(w[2], w[3])])
-        self.dec = nn.ModuleList([_Up(w[3], w[2]), _Up(w[2], w[1]), _Up(w[1], w[0])])
+        self.enc = nn.ModuleList([_block(IN_CHANNELS, w[0])] + [_block(w[k - 1], w[k]) for k in range(1, len(w))])
+        self.dec = nn.ModuleList([_Up(w[k], w[k - 1]) for k in range(len(w) - 1, 0, -1)])
         self.head = nn.Conv2d(w[0], 1, 1)
         self.pool = nn.MaxPool2d(2)
 
