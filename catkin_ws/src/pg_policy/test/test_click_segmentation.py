@@ -106,3 +106,34 @@ def test_join_parts_groups_mutually_covering_segments(threshold_model):
     joined = threshold_model.join_parts(_hm(height), labels)
     assert set(np.unique(joined)) == {0, 2, 3}
     assert (joined[50:70, 50:70] == 2).all() and (joined[40:80, 100:120] == 3).all()
+
+
+def test_load_segmenter_specs(tmp_path, threshold_model):
+    from pg_policy.models.click_segmentation import load_segmenter, shipped_path
+
+    assert load_segmenter("none") is None
+    shipped = load_segmenter("shipped")
+    assert (shipped is None) == (not shipped_path().is_file())
+    assert load_segmenter(str(threshold_model.path)).path == threshold_model.path
+    with pytest.raises(FileNotFoundError, match="'shipped', 'none' or the path"):
+        load_segmenter(str(tmp_path / "nope.pt"))
+
+
+def test_follower_joins_parts_only_with_a_segmenter(threshold_model):
+    from pg_core.heightmap import pixel_to_world
+    from pg_policy.target_loop.target_spec import PointTarget, TargetFollower
+
+    height = np.zeros((224, 224))
+    color = np.full((224, 224, 3), (190, 160, 120), np.uint8)
+    height[40:80, 40:80] = 0.06  # a wall ...
+    height[50:70, 50:70] = 0.02  # ... and its floor 4 cm lower: two segments
+    color[40:80, 40:80] = (200, 40, 40)
+    color[50:70, 50:70] = (40, 40, 200)
+    hm = _hm(height, color)
+    x, y = pixel_to_world(44, 60, BOUNDS, RES)
+    plain = TargetFollower(PointTarget(x, y), 0.1, "none").mask(hm)
+    joined = TargetFollower(PointTarget(x, y), 0.1, str(threshold_model.path)).mask(hm)
+    assert not plain[55:65, 55:65].any()  # the floor is another segment
+    assert joined[55:65, 55:65].all() and (joined & plain).sum() == plain.sum()
+    with pytest.raises(FileNotFoundError):
+        TargetFollower(PointTarget(x, y), 0.1, "missing.pt")

@@ -74,6 +74,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                          "the point at the centre of the target in the first view; mask = its mask in the first "
                          "view (both from the simulator's ground truth, then followed by the target tracker: "
                          "results add the tracked mask's IoU and grasps of the wrong object)")
+    ev.add_argument("--segmenter", default="shipped",
+                    help="point targets: the learned segmenter that joins the parts of the object under the point "
+                         "(default shipped: pg_policy/models/click-segmenter; none: the geometric segmentation "
+                         "alone; or the path of a model file from `pushgrasp train-segmenter`)")
     ev.add_argument("--colours", choices=list(COLOUR_MODES), default=UNIQUE,
                     help="scene colours (default unique: as built, the target's colour its own): repeated = "
                          "random palette colours with duplicates, at least one other object in the target's "
@@ -115,6 +119,7 @@ def _run(args: argparse.Namespace) -> int:
     from pg_learning.evaluation.runner import EvalPlan, Limits, check_seed, expand_scenes
     from pg_learning.evaluation.trial_workers import run_trials
     from pg_policy.decision.rules.pipeline import RulePipeline
+    from pg_policy.models.click_segmentation import SHIPPED, load_segmenter
     from pg_policy.models.device import check_device
     from pg_policy.policies.policy import PolicyOptions
     from pg_policy.policies.registry import make_policy
@@ -125,6 +130,7 @@ def _run(args: argparse.Namespace) -> int:
     check_target_by(args.target_by, args.colours)
     check_device(args.device)
     load_profile(args.sensor)  # ValueError naming the known profiles before any simulation
+    load_segmenter(args.segmenter)  # FileNotFoundError naming the accepted values before any simulation
     if args.trials < 1:
         raise ValueError(f"--trials must be >= 1, got {args.trials}")
     workers = args.workers if args.workers is not None else (0 if args.ray_address else 1)
@@ -148,7 +154,7 @@ def _run(args: argparse.Namespace) -> int:
     del policy
     plan = EvalPlan(tuple(scenes), args.trials, args.seed, Limits(args.max_actions, args.max_failed_grasps),
                     args.jitter_xy, math.radians(args.jitter_yaw), args.sim_mode, args.target_by, args.colours,
-                    args.sensor, args.calibrate)
+                    args.sensor, args.calibrate, args.segmenter)
     config = {
         "policy": policy_name, "policy_arg": args.policy, "models": [str(p) for p in opts.models],
         "scenes": scenes, "trials": args.trials,
@@ -164,6 +170,8 @@ def _run(args: argparse.Namespace) -> int:
     }
     if args.target_by != COLOUR or args.colours != UNIQUE:  # absent by default: earlier journals stay resumable
         config.update(target_by=args.target_by, colours=args.colours)
+    if args.segmenter != SHIPPED:  # absent by default, as above
+        config.update(segmenter=args.segmenter)
     if args.sensor != PERFECT:  # absent by default, as above
         config.update(sensor=args.sensor)
     if args.calibrate:

@@ -63,6 +63,7 @@ from pg_core.seeds import MIN_EVAL_SEED
 from pg_core.target_mask import target_mask
 from pg_learning.evaluation.errors import ERROR, mark_error
 from pg_learning.evaluation.target_by import COLOUR, TrialTarget, check_target_by
+from pg_policy.models.click_segmentation import SHIPPED
 from pg_policy.target_loop.episode import Episode, Limits, Outcome
 from pg_policy.target_loop.episode import check_eval_seed as check_seed
 from pg_policy.target_loop.loop_types import PolicyObservation
@@ -100,12 +101,13 @@ class EvalPolicy(Protocol):
 
 
 def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: Limits | None = None,
-              scene_name: str | None = None, target_by: str = COLOUR) -> TrialRecord:
+              scene_name: str | None = None, target_by: str = COLOUR, segmenter: str = SHIPPED) -> TrialRecord:
     """Run one trial of the protocol (module docstring) and return its record.
 
     `scene` goes to env.reset(scene, seed) unchanged (a name, a YAML path, "random-N" or a SceneSpec); `scene_name`
     labels the record (default str(scene)). `target_by`: how the target is named (``colour``, ``point``, ``mask``:
-    pg_learning.evaluation.target_by; point and mask need observations with ``truth_target``). An Exception of the
+    pg_learning.evaluation.target_by; point and mask need observations with ``truth_target``); `segmenter`: the
+    learned segmenter joining a point's parts (pg_policy.models.click_segmentation.load_segmenter). An Exception of the
     env or the policy ends the trial with termination "error" (the actions before it kept); KeyboardInterrupt and
     other BaseExceptions propagate. An environment whose observations carry no heightmap (test doubles) runs
     without the target memory: counts and limits only.
@@ -114,7 +116,8 @@ def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: L
     rec = TrialRecord(scene=scene_name or str(scene), seed=seed)
     ep = Episode(limits or Limits())
     primitives = getattr(getattr(env, "geometry", None), "primitives", None)
-    target = None if target_by == COLOUR else TrialTarget(target_by, getattr(primitives, "push_length", None))
+    target = (None if target_by == COLOUR
+              else TrialTarget(target_by, getattr(primitives, "push_length", None), segmenter))
     stage = "policy.reset"
     try:
         policy.reset(seed)
@@ -252,7 +255,8 @@ class EvalPlan:
     """The trials to run: scenes x trials, seeds seed + i, limits, pose jitter of fixed scenes, the simulation
     mode (pg_sim.world.sim_mode), how trials name the target (`target_by`: colour, point, mask), the colour
     variant (`colours`: pg_sim.world.recolour), the camera (`sensor`: a pg_sim.world.sensor_model profile, checked
-    when an environment is made; `calibrate`: calibrated before every trial, pg_learning.environment.sim_calibration).
+    when an environment is made; `calibrate`: calibrated before every trial, pg_learning.environment.sim_calibration),
+    the learned segmenter of point targets (`segmenter`: pg_policy.models.click_segmentation.load_segmenter).
     ValueError for an unknown one, or colour targets where colours repeat."""
 
     scenes: tuple[str, ...]
@@ -266,6 +270,7 @@ class EvalPlan:
     colours: str = UNIQUE
     sensor: str = PERFECT
     calibrate: bool = False
+    segmenter: str = SHIPPED
 
     def __post_init__(self) -> None:
         check_mode(self.colours)
@@ -317,7 +322,8 @@ def run_fresh(make_env: Callable[[], EvalEnv], policy: EvalPolicy, name: str, se
         rec.wall_s = time.perf_counter() - t0
         return rec
     try:
-        return run_trial(env, policy, scene, seed, plan.limits, scene_name=name, target_by=plan.target_by)
+        return run_trial(env, policy, scene, seed, plan.limits, scene_name=name, target_by=plan.target_by,
+                         segmenter=plan.segmenter)
     finally:
         close = getattr(env, "close", None)
         if close is not None:

@@ -29,6 +29,7 @@ import cv2
 import numpy as np
 
 from pg_core.heightmap import Heightmap, pixel_to_world
+from pg_policy.models.click_segmentation import SHIPPED
 from pg_policy.perception.segmentation import object_cells
 from pg_policy.target_loop.target_spec import MaskTarget, PointTarget, TargetFollower
 from pg_sim.world.recolour import UNIQUE
@@ -86,13 +87,15 @@ def first_spec(target_by: str, hm: Heightmap, truth: np.ndarray) -> PointTarget 
 
 class TrialTarget:
     """The target masks of one trial named by ``point`` or ``mask`` (module docstring). `push_length`: m a push
-    travels (the geometry's primitives.push_length); None: no displacement is predicted."""
+    travels (the geometry's primitives.push_length); None: no displacement is predicted. `segmenter`: the learned
+    segmenter joining a point's parts in the first view (pg_policy.models.click_segmentation.load_segmenter)."""
 
-    def __init__(self, target_by: str, push_length: float | None = None) -> None:
+    def __init__(self, target_by: str, push_length: float | None = None, segmenter: str = SHIPPED) -> None:
         if target_by not in (POINT, MASK):
             raise ValueError(f"TrialTarget follows point or mask targets, got {target_by!r}")
         self.target_by = target_by
         self.push_length = push_length
+        self.segmenter = segmenter
         self.follower: TargetFollower | None = None
         self.view: dict[str, Any] = {}
 
@@ -102,7 +105,7 @@ class TrialTarget:
         the first view does not show the target or its point names no object."""
         truth = np.asarray(truth, dtype=bool)
         if self.follower is None:
-            self.follower = TargetFollower(first_spec(self.target_by, hm, truth), self.push_length)
+            self.follower = TargetFollower(first_spec(self.target_by, hm, truth), self.push_length, self.segmenter)
         mask = np.asarray(self.follower.mask(hm), dtype=bool)
         score = iou(mask, truth)
         self.view = {"iou": None if score is None else round(score, 4), "truth_cells": int(truth.sum()),

@@ -1,16 +1,17 @@
-"""The object under a clicked cell, segmented by the learned click-conditioned segmenter.
+"""The object under a clicked cell, as the learned click-conditioned segmenter sees it.
 
-`ClickSegmentation(path)` loads a TorchScript pg_policy.models.nets.click_segmenter.ClickSegmenter (the shipped one:
-`shipped()`, pg_policy/models/click-segmenter/click_segmenter.pt, trained on simulated views of the training objects
-by `pushgrasp train-segmenter`). `mask(hm, row, col)` runs it on the window of WINDOW cells centred on the cell and
-keeps the cells it scores above THRESHOLD that are valid and 8-connected to the clicked cell (or, when the click
-itself scores under it, to the nearest such cell within SNAP_CELLS). The net sees colour, height and validity: it
-joins an object's parts of two heights or two colours (a mug's rim and floor, a tool's handle and blade) and splits
-touching objects that a height-and-colour segmentation joins, as far as its training views taught it.
+`ClickSegmentation(path)` loads a TorchScript pg_policy.models.nets.click_segmenter.ClickSegmenter;
+`load_segmenter(spec)` the one a spec names: "shipped" (pg_policy/models/click-segmenter/click_segmenter.pt,
+trained on simulated views of the training objects by `pushgrasp train-segmenter`), "none" or a model file.
+`mask(hm, row, col)` runs the net on the window of WINDOW cells centred on the cell and keeps the cells it scores
+at THRESHOLD or more that are valid and 8-connected to the clicked cell (or, when the click itself scores under it,
+to the nearest such cell within SNAP_CELLS). The net sees colour, height and validity; its edges are blurred, so
+the target loop uses it to group segments, not to draw them: `join_clicked` adds to a clicked object's mask the
+segments (pg_policy.perception.segmentation) the net's mask covers for JOIN_SHARE of their cells (a mug's rim
+and floor, a tool's handle and blade, a toy car's roof and body); `join_parts` groups all segments of a view so.
 
 Frames and units: (H, W) grids of pg_core.heightmap (rows along y, columns along x); heights in metres.
-Deterministic on CPU (one thread set by the caller's torch). Raised: FileNotFoundError for a missing model file,
-ValueError for a cell outside the grid.
+Deterministic on CPU. Raised: FileNotFoundError for a missing model file, ValueError for a cell outside the grid.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from pg_policy.models.nets.click_segmenter import encode_window, paste_window
 WINDOW = 128  # cells (a multiple of 32), the window the shipped net was trained on
 THRESHOLD = 0.5  # a cell belongs to the object when the net's probability reaches this
 SNAP_CELLS = 3  # a click the net leaves out snaps to its nearest object cell within this many cells
-JOIN_SHARE = 0.8  # `join_parts`: segments are one object when the net clicked on each covers this share of the other
+JOIN_SHARE = 0.8  # a segment is part of the clicked object when the net's mask covers this share of its cells
 FILE = "click_segmenter.pt"
 
 
@@ -126,8 +127,24 @@ class ClickSegmentation:
         return out
 
 
-@lru_cache(maxsize=1)
-def shipped() -> ClickSegmentation | None:
-    """The shipped segmenter, loaded once; None when no model ships (the geometric segmentation is used)."""
-    path = shipped_path()
-    return ClickSegmentation(path) if path.is_file() else None
+SHIPPED, NONE = "shipped", "none"  # `load_segmenter` specs besides a model file's path
+
+
+def load_segmenter(spec: str = SHIPPED) -> ClickSegmentation | None:
+    """The segmenter a `spec` names: SHIPPED (the shipped model; None where none ships), NONE (None: the
+    geometric segmentation alone) or the path of a TorchScript model file. Loaded once per spec. Raises
+    FileNotFoundError for a path that is no file (naming the accepted specs)."""
+    return _load(str(spec))
+
+
+@lru_cache(maxsize=8)
+def _load(spec: str) -> ClickSegmentation | None:
+    if spec == NONE:
+        return None
+    if spec == SHIPPED:
+        path = shipped_path()
+        return ClickSegmentation(path) if path.is_file() else None
+    if not Path(spec).is_file():
+        raise FileNotFoundError(f"segmenter {spec!r}: no such model file (expected {SHIPPED!r}, {NONE!r} or the path "
+                                "of a TorchScript click segmenter, e.g. runs/segmenter/click_segmenter.pt)")
+    return ClickSegmentation(spec)

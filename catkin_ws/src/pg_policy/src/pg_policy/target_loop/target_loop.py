@@ -49,6 +49,7 @@ import numpy as np
 
 from pg_core.heap_trim import release_free_memory
 from pg_core.target_mask import MIN_VISIBLE_CELLS
+from pg_policy.models.click_segmentation import SHIPPED, load_segmenter
 from pg_policy.target_loop.episode import (
     CANCELLED,
     COMPLETED,
@@ -96,6 +97,9 @@ class TargetLoop:
     action has run, a call ends with RESET_MESSAGE when the token differs
     from the one it started with (or, started unknown, from the first one it saw): checked before every primitive
     and around every heightmap it waits for, i.e. between primitives.
+    segmenter: the learned segmenter that joins a point target's parts in its first view
+    (pg_policy.models.click_segmentation.load_segmenter: "shipped", "none" or a model file; FileNotFoundError for a
+    file that is not there).
     Callbacks (on_decision, on_action, the `cancelled` of run) are called on the worker thread.
     """
 
@@ -103,8 +107,10 @@ class TargetLoop:
                  policy_name: str = "", heightmap_timeout_s: float = 5.0,
                  on_action: Callable[[ActionRecord], None] | None = None,
                  on_decision: Callable[[ActionRecord, StampedHeightmap], None] | None = None,
-                 scene_epoch: Callable[[], object] | None = None) -> None:
+                 scene_epoch: Callable[[], object] | None = None, segmenter: str = SHIPPED) -> None:
         self.policy = policy
+        self.segmenter = segmenter  # joins a point target's parts (pg_policy.models.click_segmentation)
+        load_segmenter(segmenter)  # a missing model file is refused at construction
         self.source = source
         self.executor = executor
         self.clock = clock
@@ -140,7 +146,8 @@ class TargetLoop:
     def _start_target(self, spec: TargetSpec) -> None:
         """Per call: a fresh TargetFollower for a point or mask target (colour: none, the colour path)."""
         push_length = getattr(getattr(self.policy, "prims", None), "push_length", None)
-        self._follower = None if isinstance(spec, ColourTarget) else TargetFollower(spec, push_length)
+        self._follower = (None if isinstance(spec, ColourTarget)
+                          else TargetFollower(spec, push_length, self.segmenter))
         self._seen = None
 
     def _target_mask(self, target: str, shm: StampedHeightmap) -> np.ndarray:

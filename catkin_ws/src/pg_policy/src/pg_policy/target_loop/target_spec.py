@@ -7,7 +7,9 @@ A request names its target in one of three ways:
   projected to the table); on the first observation the mask is pg_policy.perception.segmentation.segment_at of the
   point's cell, cut at the necks where look-alikes touch it (pg_policy.perception.necks.cut_at_neck) and then to
   the object centred on the point (`centred_on`: a look-alike touching it side by side in one segment is left
-  out), on later ones pg_policy.perception.target_tracker.TargetTracker keeps it on the same object;
+  out), and joined with the segments the learned segmenter takes for parts of the same object
+  (pg_policy.models.click_segmentation.ClickSegmentation.join_clicked; `segmenter` "none": not joined); on later
+  ones pg_policy.perception.target_tracker.TargetTracker keeps it on the same object;
 - `MaskTarget(mask)`: the object a (H, W) bool mask over the heightmap grid mostly covers; on the first
   observation the mask is refined to the object segment holding most of its cells, then tracked as a point is.
 
@@ -32,7 +34,7 @@ import numpy as np
 
 from pg_core.heightmap import Heightmap, world_to_pixel
 from pg_core.target_mask import hsv_window, target_mask
-from pg_policy.models.click_segmentation import shipped as click_segmenter
+from pg_policy.models.click_segmentation import SHIPPED, load_segmenter
 from pg_policy.perception.necks import cut_at_neck
 from pg_policy.perception.push_shift import push_shift
 from pg_policy.perception.segmentation import centred_on, segment_at, segment_objects
@@ -96,8 +98,10 @@ def point_cell(hm: Heightmap, target: PointTarget) -> tuple[int, int]:
     return row, col
 
 
-def first_mask(hm: Heightmap, target: PointTarget | MaskTarget) -> np.ndarray:
-    """(H, W) bool: the object a point or mask target names in its first heightmap (see the module docstring)."""
+def first_mask(hm: Heightmap, target: PointTarget | MaskTarget, segmenter: str = SHIPPED) -> np.ndarray:
+    """(H, W) bool: the object a point or mask target names in its first heightmap (see the module docstring);
+    `segmenter`: the learned segmenter joining a point's parts (pg_policy.models.click_segmentation.load_segmenter:
+    "shipped", "none" or a model file)."""
     labels = segment_objects(hm)
     if isinstance(target, PointTarget):
         row, col = point_cell(hm, target)
@@ -106,7 +110,7 @@ def first_mask(hm: Heightmap, target: PointTarget | MaskTarget) -> np.ndarray:
         except ValueError as exc:
             raise ValueError(f"PointTarget ({target.x:.3f}, {target.y:.3f}) m names no object: {exc}") from None
         first = segment if not segment[row, col] else centred_on(cut_at_neck(segment, row, col), row, col)
-        learned = click_segmenter()
+        learned = load_segmenter(segmenter)
         return first if learned is None else learned.join_clicked(hm, labels, first, row, col)
     mask = np.asarray(target.mask).astype(bool)
     if mask.shape != labels.shape:
@@ -121,13 +125,16 @@ def first_mask(hm: Heightmap, target: PointTarget | MaskTarget) -> np.ndarray:
 class TargetFollower:
     """The per-observation target mask of one request: `mask(hm)` for each heightmap in turn, `acted(...)` after
     each action. push_length: m a push travels (the geometry's primitives.push_length); None: no displacement is
-    ever predicted (the tracker looks for the target where it was last seen)."""
+    ever predicted (the tracker looks for the target where it was last seen). segmenter: `first_mask`'s. Raises
+    ValueError for another spec type, FileNotFoundError for a segmenter model file that is not there."""
 
-    def __init__(self, spec: TargetSpec, push_length: float | None = None) -> None:
+    def __init__(self, spec: TargetSpec, push_length: float | None = None, segmenter: str = SHIPPED) -> None:
         if not isinstance(spec, ColourTarget | PointTarget | MaskTarget):
             raise ValueError(f"target must be a ColourTarget, PointTarget or MaskTarget, got {type(spec).__name__}")
         self.spec = spec
         self.push_length = push_length
+        self.segmenter = segmenter
+        load_segmenter(segmenter)  # a missing model file is refused here, before any heightmap
         self.tracker = TargetTracker()
         self.track: Track | None = None  # the latest track (None for colours and before the first observation)
         self.shift: tuple[float, float] | None = None  # predicted displacement for the next update (m, `world`)
@@ -142,7 +149,7 @@ class TargetFollower:
         if isinstance(spec, ColourTarget):
             return target_mask(hm.color, hm.valid, spec.name)
         if self.track is None:
-            self.track = self.tracker.start(hm, first_mask(hm, spec))
+            self.track = self.tracker.start(hm, first_mask(hm, spec, self.segmenter))
         else:
             self.track = self.tracker.update(hm, shift_xy if shift_xy is not None else self.shift)
         self.shift = None
