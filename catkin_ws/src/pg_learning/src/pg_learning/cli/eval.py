@@ -74,10 +74,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                          "the point at the centre of the target in the first view; mask = its mask in the first "
                          "view (both from the simulator's ground truth, then followed by the target tracker: "
                          "results add the tracked mask's IoU and grasps of the wrong object)")
-    ev.add_argument("--segmenter", default="shipped",
+    ev.add_argument("--segmenter", default="none",
                     help="point targets: the learned segmenter that joins the parts of the object under the point "
-                         "(default shipped: pg_policy/models/click-segmenter; none: the geometric segmentation "
-                         "alone; or the path of a model file from `pushgrasp train-segmenter`)")
+                         "(default none: the geometric segmentation alone; shipped: "
+                         "pg_policy/models/click-segmenter; or the path of a model file from `pushgrasp "
+                         "train-segmenter`)")
     ev.add_argument("--colours", choices=list(COLOUR_MODES), default=UNIQUE,
                     help="scene colours (default unique: as built, the target's colour its own): repeated = "
                          "random palette colours with duplicates, at least one other object in the target's "
@@ -119,7 +120,7 @@ def _run(args: argparse.Namespace) -> int:
     from pg_learning.evaluation.runner import EvalPlan, Limits, check_seed, expand_scenes
     from pg_learning.evaluation.trial_workers import run_trials
     from pg_policy.decision.rules.pipeline import RulePipeline
-    from pg_policy.models.click_segmentation import SHIPPED, load_segmenter
+    from pg_policy.models.click_segmentation import DEFAULT_SEGMENTER, load_segmenter
     from pg_policy.models.device import check_device
     from pg_policy.policies.policy import PolicyOptions
     from pg_policy.policies.registry import make_policy
@@ -170,7 +171,7 @@ def _run(args: argparse.Namespace) -> int:
     }
     if args.target_by != COLOUR or args.colours != UNIQUE:  # absent by default: earlier journals stay resumable
         config.update(target_by=args.target_by, colours=args.colours)
-    if args.segmenter != SHIPPED:  # absent by default, as above
+    if args.segmenter != DEFAULT_SEGMENTER:  # absent by default, as above
         config.update(segmenter=args.segmenter)
     if args.sensor != PERFECT:  # absent by default, as above
         config.update(sensor=args.sensor)

@@ -63,7 +63,7 @@ from pg_core.seeds import MIN_EVAL_SEED
 from pg_core.target_mask import target_mask
 from pg_learning.evaluation.errors import ERROR, mark_error
 from pg_learning.evaluation.target_by import COLOUR, TrialTarget, check_target_by
-from pg_policy.models.click_segmentation import SHIPPED
+from pg_policy.models.click_segmentation import DEFAULT_SEGMENTER
 from pg_policy.target_loop.episode import Episode, Limits, Outcome
 from pg_policy.target_loop.episode import check_eval_seed as check_seed
 from pg_policy.target_loop.loop_types import PolicyObservation
@@ -101,7 +101,8 @@ class EvalPolicy(Protocol):
 
 
 def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: Limits | None = None,
-              scene_name: str | None = None, target_by: str = COLOUR, segmenter: str = SHIPPED) -> TrialRecord:
+              scene_name: str | None = None, target_by: str = COLOUR,
+              segmenter: str = DEFAULT_SEGMENTER) -> TrialRecord:
     """Run one trial of the protocol (module docstring) and return its record.
 
     `scene` goes to env.reset(scene, seed) unchanged (a name, a YAML path, "random-N" or a SceneSpec); `scene_name`
@@ -270,7 +271,7 @@ class EvalPlan:
     colours: str = UNIQUE
     sensor: str = PERFECT
     calibrate: bool = False
-    segmenter: str = SHIPPED
+    segmenter: str = DEFAULT_SEGMENTER
 
     def __post_init__(self) -> None:
         check_mode(self.colours)

@@ -29,7 +29,7 @@ import cv2
 import numpy as np
 
 from pg_core.heightmap import Heightmap, pixel_to_world
-from pg_policy.models.click_segmentation import SHIPPED
+from pg_policy.models.click_segmentation import DEFAULT_SEGMENTER
 from pg_policy.perception.segmentation import object_cells
 from pg_policy.target_loop.target_spec import MaskTarget, PointTarget, TargetFollower
 from pg_sim.world.recolour import UNIQUE
@@ -90,7 +90,7 @@ class TrialTarget:
     travels (the geometry's primitives.push_length); None: no displacement is predicted. `segmenter`: the learned
     segmenter joining a point's parts in the first view (pg_policy.models.click_segmentation.load_segmenter)."""
 
-    def __init__(self, target_by: str, push_length: float | None = None, segmenter: str = SHIPPED) -> None:
+    def __init__(self, target_by: str, push_length: float | None = None, segmenter: str = DEFAULT_SEGMENTER) -> None:
         if target_by not in (POINT, MASK):
             raise ValueError(f"TrialTarget follows point or mask targets, got {target_by!r}")
         self.target_by = target_by

@@ -128,9 +128,10 @@ class ClickSegmentation:
 
 
 SHIPPED, NONE = "shipped", "none"  # `load_segmenter` specs besides a model file's path
+DEFAULT_SEGMENTER = NONE  # the target loop's default: the geometric segmentation alone (docs/RESULTS.md)
 
 
-def load_segmenter(spec: str = SHIPPED) -> ClickSegmentation | None:
+def load_segmenter(spec: str = DEFAULT_SEGMENTER) -> ClickSegmentation | None:
     """The segmenter a `spec` names: SHIPPED (the shipped model; None where none ships), NONE (None: the
     geometric segmentation alone) or the path of a TorchScript model file. Loaded once per spec. Raises
     FileNotFoundError for a path that is no file (naming the accepted specs)."""

@@ -97,7 +97,7 @@ class PolicyNode:
         self.loop = TargetLoop(policy, self.source, executor, rospy.get_time, self.policy_name,
                                float(rospy.get_param("~heightmap_timeout", 5.0)), on_action=self._publish_action,
                                on_decision=self._visualise, scene_epoch=lambda: self.scene_resets_,
-                               segmenter=str(rospy.get_param("~segmenter", "shipped")))
+                               segmenter=str(rospy.get_param("~segmenter", "none")))
         self.busy = threading.Lock()
         self.feedback_ = None  # action feedback of the running call
         self.cancels_: dict[str, threading.Event] = {}

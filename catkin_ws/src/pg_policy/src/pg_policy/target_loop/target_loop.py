@@ -49,7 +49,7 @@ import numpy as np
 
 from pg_core.heap_trim import release_free_memory
 from pg_core.target_mask import MIN_VISIBLE_CELLS
-from pg_policy.models.click_segmentation import SHIPPED, load_segmenter
+from pg_policy.models.click_segmentation import DEFAULT_SEGMENTER, load_segmenter
 from pg_policy.target_loop.episode import (
     CANCELLED,
     COMPLETED,
@@ -98,8 +98,8 @@ class TargetLoop:
     from the one it started with (or, started unknown, from the first one it saw): checked before every primitive
     and around every heightmap it waits for, i.e. between primitives.
     segmenter: the learned segmenter that joins a point target's parts in its first view
-    (pg_policy.models.click_segmentation.load_segmenter: "shipped", "none" or a model file; FileNotFoundError for a
-    file that is not there).
+    (pg_policy.models.click_segmentation.load_segmenter: "none", the default, "shipped" or a model file;
+    FileNotFoundError for a file that is not there).
     Callbacks (on_decision, on_action, the `cancelled` of run) are called on the worker thread.
     """
 
@@ -107,7 +107,7 @@ class TargetLoop:
                  policy_name: str = "", heightmap_timeout_s: float = 5.0,
                  on_action: Callable[[ActionRecord], None] | None = None,
                  on_decision: Callable[[ActionRecord, StampedHeightmap], None] | None = None,
-                 scene_epoch: Callable[[], object] | None = None, segmenter: str = SHIPPED) -> None:
+                 scene_epoch: Callable[[], object] | None = None, segmenter: str = DEFAULT_SEGMENTER) -> None:
         self.policy = policy
         self.segmenter = segmenter  # joins a point target's parts (pg_policy.models.click_segmentation)
         load_segmenter(segmenter)  # a missing model file is refused at construction

@@ -7,8 +7,9 @@ A request names its target in one of three ways:
   projected to the table); on the first observation the mask is pg_policy.perception.segmentation.segment_at of the
   point's cell, cut at the necks where look-alikes touch it (pg_policy.perception.necks.cut_at_neck) and then to
   the object centred on the point (`centred_on`: a look-alike touching it side by side in one segment is left
-  out), and joined with the segments the learned segmenter takes for parts of the same object
-  (pg_policy.models.click_segmentation.ClickSegmentation.join_clicked; `segmenter` "none": not joined); on later
+  out), and, with a learned segmenter (`segmenter` "shipped" or a model file; the default "none" has none), joined
+  with the segments it takes for parts of the same object
+  (pg_policy.models.click_segmentation.ClickSegmentation.join_clicked); on later
   ones pg_policy.perception.target_tracker.TargetTracker keeps it on the same object;
 - `MaskTarget(mask)`: the object a (H, W) bool mask over the heightmap grid mostly covers; on the first
   observation the mask is refined to the object segment holding most of its cells, then tracked as a point is.
@@ -34,7 +35,7 @@ import numpy as np
 
 from pg_core.heightmap import Heightmap, world_to_pixel
 from pg_core.target_mask import hsv_window, target_mask
-from pg_policy.models.click_segmentation import SHIPPED, load_segmenter
+from pg_policy.models.click_segmentation import DEFAULT_SEGMENTER, load_segmenter
 from pg_policy.perception.necks import cut_at_neck
 from pg_policy.perception.push_shift import push_shift
 from pg_policy.perception.segmentation import centred_on, segment_at, segment_objects
@@ -98,10 +99,10 @@ def point_cell(hm: Heightmap, target: PointTarget) -> tuple[int, int]:
     return row, col
 
 
-def first_mask(hm: Heightmap, target: PointTarget | MaskTarget, segmenter: str = SHIPPED) -> np.ndarray:
+def first_mask(hm: Heightmap, target: PointTarget | MaskTarget, segmenter: str = DEFAULT_SEGMENTER) -> np.ndarray:
     """(H, W) bool: the object a point or mask target names in its first heightmap (see the module docstring);
     `segmenter`: the learned segmenter joining a point's parts (pg_policy.models.click_segmentation.load_segmenter:
-    "shipped", "none" or a model file)."""
+    "none", the default, "shipped" or a model file)."""
     labels = segment_objects(hm)
     if isinstance(target, PointTarget):
         row, col = point_cell(hm, target)
@@ -128,7 +129,7 @@ class TargetFollower:
     ever predicted (the tracker looks for the target where it was last seen). segmenter: `first_mask`'s. Raises
     ValueError for another spec type, FileNotFoundError for a segmenter model file that is not there."""
 
-    def __init__(self, spec: TargetSpec, push_length: float | None = None, segmenter: str = SHIPPED) -> None:
+    def __init__(self, spec: TargetSpec, push_length: float | None = None, segmenter: str = DEFAULT_SEGMENTER) -> None:
         if not isinstance(spec, ColourTarget | PointTarget | MaskTarget):
             raise ValueError(f"target must be a ColourTarget, PointTarget or MaskTarget, got {type(spec).__name__}")
         self.spec = spec
