@@ -94,20 +94,6 @@ def test_join_clicked_adds_the_parts_the_net_covers(threshold_model):
     assert np.array_equal(threshold_model.join_clicked(_hm(height), labels, labels == 3, 60, 110), labels == 3)
 
 
-def test_join_parts_groups_mutually_covering_segments(threshold_model):
-    height = np.zeros((224, 224))
-    height[40:80, 40:80] = 0.06
-    height[50:70, 50:70] = 0.02
-    height[40:80, 100:120] = 0.03
-    labels = np.zeros((224, 224), np.int32)
-    labels[40:80, 40:80] = 2
-    labels[50:70, 50:70] = 5
-    labels[40:80, 100:120] = 3
-    joined = threshold_model.join_parts(_hm(height), labels)
-    assert set(np.unique(joined)) == {0, 2, 3}
-    assert (joined[50:70, 50:70] == 2).all() and (joined[40:80, 100:120] == 3).all()
-
-
 def test_load_segmenter_specs(tmp_path, threshold_model):
     from pg_policy.models.click_segmentation import load_segmenter, shipped_path
 

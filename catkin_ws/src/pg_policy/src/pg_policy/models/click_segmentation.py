@@ -8,7 +8,7 @@ at THRESHOLD or more that are valid and 8-connected to the clicked cell (or, whe
 to the nearest such cell within SNAP_CELLS). The net sees colour, height and validity; its edges are blurred, so
 the target loop uses it to group segments, not to draw them: `join_clicked` adds to a clicked object's mask the
 segments (pg_policy.perception.segmentation) the net's mask covers for JOIN_SHARE of their cells (a mug's rim
-and floor, a tool's handle and blade, a toy car's roof and body); `join_parts` groups all segments of a view so.
+and floor, a tool's handle and blade, a toy car's roof and body).
 
 Frames and units: (H, W) grids of pg_core.heightmap (rows along y, columns along x); heights in metres.
 Deterministic on CPU. Raised: FileNotFoundError for a missing model file, ValueError for a cell outside the grid.
@@ -88,42 +88,6 @@ class ClickSegmentation:
             seg = labels == k
             if k and int((net & seg).sum()) >= JOIN_SHARE * int(seg.sum()):
                 out |= seg
-        return out
-
-    def join_parts(self, hm: Heightmap, labels: np.ndarray) -> np.ndarray:
-        """(H, W) int32 labels: the segments of `labels` (pg_policy.perception.segmentation.segment_objects, 0 none)
-        joined where they are parts of one object: the net clicked at each segment's innermost cell covers
-        JOIN_SHARE or more of the other's cells, both ways (a mug's rim and floor, a tool's handle and blade; two
-        look-alikes stacked or side by side stay apart unless the net takes them for one). A joined segment takes
-        the lowest label of its parts."""
-        labels = np.asarray(labels)
-        ids = [k for k in range(1, int(labels.max()) + 1) if (labels == k).any()]
-        covers = {}
-        for k in ids:
-            seg = labels == k
-            inside = cv2.distanceTransform(np.pad(seg, 1).astype(np.uint8), cv2.DIST_L2, 3)[1:-1, 1:-1]
-            row, col = np.unravel_index(int(np.argmax(inside)), inside.shape)
-            covers[k] = self.mask(hm, int(row), int(col))
-        root = {k: k for k in ids}
-
-        def find(k: int) -> int:
-            while root[k] != k:
-                k = root[k]
-            return k
-
-        sizes = {k: int((labels == k).sum()) for k in ids}
-        for a in ids:
-            for b in ids:
-                if b <= a:
-                    continue
-                ab = int((covers[a] & (labels == b)).sum()) >= JOIN_SHARE * sizes[b]
-                ba = int((covers[b] & (labels == a)).sum()) >= JOIN_SHARE * sizes[a]
-                if ab and ba:
-                    ra, rb = find(a), find(b)
-                    root[max(ra, rb)] = min(ra, rb)
-        out = labels.astype(np.int32).copy()
-        for k in ids:
-            out[labels == k] = find(k)
         return out
 
 

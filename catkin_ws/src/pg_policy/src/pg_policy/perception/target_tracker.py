@@ -64,7 +64,6 @@ RuntimeError for `update` before `start`.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import cv2
@@ -131,8 +130,7 @@ def _check_mask(hm: Heightmap, mask: np.ndarray) -> np.ndarray:
 class TargetTracker:
     """Follows one object through successive heightmaps of the same grid (see the module docstring)."""
 
-    def __init__(self, segment: Callable[[Heightmap], np.ndarray] = segment_objects) -> None:
-        self.segment = segment  # heightmap -> (H, W) int labels of its objects (0 none), as segment_objects
+    def __init__(self) -> None:
         self.reference: Appearance | None = None  # the first view's appearance
         self.last_mask: np.ndarray | None = None  # where the target was last seen ((H, W) bool)
         self.resolution = 0.0  # m per cell of the heightmaps tracked
@@ -174,7 +172,7 @@ class TargetTracker:
         """`update` past its checks."""
         assert self.reference is not None and self.last_mask is not None and self.sure_mask is not None
         dx, dy = shift_xy if shift_xy is not None else (0.0, 0.0)
-        labels = self.segment(hm)
+        labels = segment_objects(hm)
         if labels.max() == 0:
             return Track(np.zeros_like(self.last_mask), 0.0, True, "no object in view")
         lab = lab_image(hm.color)
