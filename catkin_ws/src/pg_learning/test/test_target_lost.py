@@ -89,8 +89,9 @@ def test_target_lost_records_load_and_show_in_the_report(tmp_path):
     md = paths["md"].read_text()
     assert "**1 of 2 trials lost the target**" in md
     assert "- random-10: 1 × (seed 1000001: target lost: seen leaving the workspace at (0.210, 0.004))" in md
-    assert "| random-10 | 2 | 1 | 0 | 1 |" in md and "| 0 / 0 / 1 |" in md
+    assert "| random-10 | 2 | 1 | 0 | 1 |" in md and "| 0 / 0 / 1 / 0 |" in md
     doc = json.loads(paths["json"].read_text())
-    assert doc["summary"]["random-10"]["counts"] == {"trials": 2, "completed": 1, "errors": 0, "lost": 1}
+    assert doc["summary"]["random-10"]["counts"] == {"trials": 2, "completed": 1, "errors": 0, "lost": 1,
+                                                          "not_found": 0}
     assert doc["summary"]["random-10"]["lost"]["mean"] == 0.5 and doc["summary"]["random-10"]["C"]["mean"] == 0.5
     assert [t.termination for t in load_trials(tmp_path)] == ["completed", "target_lost"]

@@ -14,11 +14,13 @@ from test_target_loop import Clock, Executor, Policy, Source
 from pg_core.heightmap import Heightmap
 from pg_core.palette import palette_rgb
 from pg_core.seeds import MIN_EVAL_SEED, train_seed
+from pg_policy.perception.target_memory import SEARCH_LIMIT_TRACKED
 from pg_policy.target_loop import episode as E
 from pg_policy.target_loop.episode import Episode, Limits, Outcome, check_eval_seed, check_train_seed
 from pg_policy.target_loop.loop_limits import LoopLimits
 from pg_policy.target_loop.loop_types import LoopError, StampedHeightmap
 from pg_policy.target_loop.target_loop import TargetLoop
+from pg_policy.target_loop.target_spec import PointTarget
 
 N = 224
 BOUNDS = np.array([[-0.224, 0.224], [-0.224, 0.224], [0.0, 0.4]])
@@ -140,6 +142,34 @@ def test_a_target_hidden_in_the_middle_is_never_lost():
     assert ep.search.hidden_for == 10 and ep.search.last_seen is not None
 
 
+def test_a_search_that_finds_nothing_ends_as_not_found():
+    """Hidden with nothing over the last-seen place: target_not_found after the search limit, which the ground
+    truth does not overrule; an observation with something over that place starts the count again."""
+    hm, mask = scene((100, 100))
+    gone, none = scene(None)  # the target nowhere, nothing over where it was
+    covered, _ = scene(None, cover=(95, 95))
+    for limit in (E.SEARCH_LIMIT_EXACT, SEARCH_LIMIT_TRACKED):
+        ep = Episode(search_limit=limit)
+        ep.observe(hm, mask)
+        views = [gone] * (limit - 1) + [covered] + [gone] * limit
+        for i, view in enumerate(views):
+            assert not ep.over()
+            ep.record(push(i % 16), Outcome())
+            ep.observe(view, none, truth_outside=False)
+        assert ep.over() and ep.termination == E.TARGET_NOT_FOUND and ep.actions == 2 * limit
+        assert ep.why == (f"target not found: not in view for {limit} observations in a row, and nothing covers where "
+                          "it was last seen (-0.004, -0.004)")
+    for ep in (Episode(search_limit=None), Episode(goal_agnostic=True)):
+        ep.observe(hm, mask)
+        for i in range(12):
+            ep.record(push(i % 16), Outcome())
+            ep.observe(gone, none)
+        assert not ep.over() and ep.search.uncovered_for == 12
+    for bad in (0, -1, 2.5, True):
+        with pytest.raises(ValueError, match="search_limit"):
+            Episode(search_limit=bad)
+
+
 # -- futile pushes ----------------------------------------------------------------------------------------------------
 def test_a_push_that_changed_nothing_is_refused_when_repeated():
     ep = Episode()
@@ -181,20 +211,20 @@ def test_seed_convention():
 class MovingSource(Source):
     """A source whose target block sits at `at` (row, col) and whose executor hides it (lifts=True in the script)."""
 
-    def __init__(self, clock: Clock, at: tuple[int, int]) -> None:
+    def __init__(self, clock: Clock, at: tuple[int, int], cover: tuple[int, int] | None = (95, 95)) -> None:
         super().__init__(clock)
-        self.at = at
+        self.at, self.cover = at, cover  # cover: where a block stands once the target is hidden (None: nowhere)
 
     def wait_after(self, stamp: float, timeout_s: float) -> StampedHeightmap:
         self.requests += 1
         self.clock.t = stamp + 0.5
-        hm, _ = scene(self.at if self.target_present else None, None if self.target_present else (95, 95))
+        hm, _ = scene(self.at if self.target_present else None, None if self.target_present else self.cover)
         return StampedHeightmap(hm, self.clock.t)
 
 
-def loop_of(at: tuple[int, int], script, primitive="push", repeat=False):
+def loop_of(at: tuple[int, int], script, primitive="push", repeat=False, cover=(95, 95)):
     clock = Clock()
-    source = MovingSource(clock, at)
+    source = MovingSource(clock, at, cover)
     ex = Executor(clock, source, script)
     policy = Policy(primitive, repeat)
     return TargetLoop(policy, source, ex, clock), source, ex, policy
@@ -221,6 +251,16 @@ def test_a_target_hidden_after_the_edge_is_lost_within_two_actions():
     res = loop.run("green")
     assert res.termination == E.TARGET_LOST and len(ex.calls) == 2
     assert res.message.startswith("target lost: hidden for 2 actions since last seen at the workspace edge")
+
+
+def test_a_call_whose_search_finds_nothing_ends_as_not_found():
+    """The target gone from the middle with nothing over its place: a colour call ends after SEARCH_LIMIT_EXACT
+    actions (the first push and the searching ones), a point call (tracked) after SEARCH_LIMIT_TRACKED."""
+    for target, limit in (("green", E.SEARCH_LIMIT_EXACT), (PointTarget(-0.004, -0.004), SEARCH_LIMIT_TRACKED)):
+        loop, _, ex, _ = loop_of((100, 100), [(True, False, True)], cover=None)
+        res = loop.run(target)
+        assert not res.success and res.termination == E.TARGET_NOT_FOUND and len(ex.calls) == limit
+        assert res.message.startswith(f"target not found: not in view for {limit} observations in a row")
 
 
 def test_a_target_not_visible_at_the_start_is_refused_before_anything_moves():

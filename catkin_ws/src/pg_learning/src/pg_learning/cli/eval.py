@@ -124,7 +124,7 @@ def _run(args: argparse.Namespace) -> int:
     from pg_policy.models.device import check_device
     from pg_policy.policies.policy import PolicyOptions
     from pg_policy.policies.registry import make_policy
-    from pg_policy.target_loop.episode import ERROR, TARGET_LOST
+    from pg_policy.target_loop.episode import ERROR, TARGET_LOST, TARGET_NOT_FOUND
     from pg_sim.world.sensor_model import load_profile
 
     check_seed(args.seed, args.allow_train_seeds)
@@ -200,7 +200,9 @@ def _run(args: argparse.Namespace) -> int:
         gs = f"{100 * sum(graspers) / len(graspers):.0f}%" if graspers else "n/a"
         n_err = sum(t.termination == ERROR for t in done)
         n_lost = sum(t.termination == TARGET_LOST for t in done)
-        errs = (f" errors {n_err}" if n_err else "") + (f" lost {n_lost}" if n_lost else "")
+        n_nf = sum(t.termination == TARGET_NOT_FOUND for t in done)
+        errs = ((f" errors {n_err}" if n_err else "") + (f" lost {n_lost}" if n_lost else "")
+                + (f" not found {n_nf}" if n_nf else ""))
         rate = 60 * ran[0] / max(1e-9, time.perf_counter() - t0)
         bar.set_postfix_str(f"{rate:.1f} trials/min C {100 * sum(t.completed for t in done) / len(done):.0f}% "
                             f"GS {gs}{errs} last {rec.scene}")

@@ -9,7 +9,8 @@ errors, lost) beside the metrics ("errors" there: the fraction of trials that en
 "errors" list (reason, count, [scene, seed] of each trial); each error trial carries "error", "error_at" and
 "error_trace". Trials whose target left the workspace (termination "target_lost") count as not completed too: the
 secondary table has a "lost" column and shows them among the terminations, results.md lists their reasons (each
-trial's "message"), and "lost" in a scene's metrics is the fraction of such trials.
+trial's "message"), and "lost" in a scene's metrics is the fraction of such trials. Trials whose search for a hidden
+target found nothing (termination "target_not_found") are counted and listed the same way ("not found").
 Trials of the catalogue families (novel-N, ...) also get rows per kind of target (pg_learning.evaluation.kinds):
 a table at the end of results.md and "by_target_kind" in results.json.
 Runs whose targets are named by a point or a mask (config "target_by", pg_learning.evaluation.target_by) add two
@@ -28,7 +29,7 @@ from typing import Any
 
 from pg_learning.evaluation.errors import ERROR, errors_json, reason_lines
 from pg_learning.evaluation.kinds import by_kind, kind_lines
-from pg_policy.target_loop.episode import FAILED_GRASPS, MAX_ACTIONS, TARGET_LOST
+from pg_policy.target_loop.episode import FAILED_GRASPS, MAX_ACTIONS, TARGET_LOST, TARGET_NOT_FOUND
 from pg_policy.target_loop.metrics import IOU_OK, Stat, Tracking, fmt, summarize, tracking_by_scene
 from pg_policy.target_loop.records import TrialRecord, plain
 
@@ -84,9 +85,13 @@ def markdown(summary: dict[str, dict[str, Stat]], config: dict[str, Any], trials
     if lost:
         lines += ["", f"**{sum(t.termination == TARGET_LOST for t in trials)} of {len(trials)} trials lost the "
                   "target** (it left the workspace; counted as not completed):", ""] + lost
+    not_found = lost_lines(trials, termination=TARGET_NOT_FOUND)
+    if not_found:
+        lines += ["", f"**{sum(t.termination == TARGET_NOT_FOUND for t in trials)} of {len(trials)} trials did not "
+                  "find the target** (the search found nothing; counted as not completed):", ""] + not_found
     lines += ["", METRIC_DOC, "", "Secondary figures:", "",
               "| Scene | trials | completed | errors | lost | GS per completion (%) | actions per completed trial "
-              "| refused per trial | ended by failed grasps / action budget / target lost |",
+              "| refused per trial | ended by failed grasps / action budget / target lost / not found |",
               "|---|---|---|---|---|---|---|---|---|"]
     for name, m in summary.items():
         ts = [t for t in trials if name == "all" or t.scene == name]
@@ -95,7 +100,7 @@ def markdown(summary: dict[str, dict[str, Stat]], config: dict[str, Any], trials
         ma = sum(t.termination == MAX_ACTIONS for t in ts)
         lines.append(f"| {name} | {c['trials']} | {c['completed']} | {c['errors']} | {c['lost']} | "
                      f"{fmt(m['gs_completed'], 100)} | {fmt(m['actions_completed'], 1, 2)} | "
-                     f"{fmt(m['refused'], 1, 2)} | {fg} / {ma} / {c['lost']} |")
+                     f"{fmt(m['refused'], 1, 2)} | {fg} / {ma} / {c['lost']} / {c['not_found']} |")
     lines += ["", "GS per completion and actions per completed trial are how Xu et al.'s evaluate.py counts "
               "\"grasp success\" and \"motion number\".", ""]
     return "\n".join(lines + kind_lines(trials))
@@ -121,18 +126,20 @@ def tracking_json(t: Tracking) -> dict[str, Any]:
 
 
 def counts(trials: Sequence[TrialRecord]) -> dict[str, int]:
-    """Trials, completed trials, trials that ended in an error and trials whose target left the workspace."""
+    """Trials, completed trials, trials that ended in an error, trials whose target left the workspace and trials
+    whose search for the target found nothing."""
     return {"trials": len(trials), "completed": sum(bool(t.completed) for t in trials),
             "errors": sum(t.termination == ERROR for t in trials),
-            "lost": sum(t.termination == TARGET_LOST for t in trials)}
+            "lost": sum(t.termination == TARGET_LOST for t in trials),
+            "not_found": sum(t.termination == TARGET_NOT_FOUND for t in trials)}
 
 
-def lost_lines(trials: Sequence[TrialRecord], show: int = 3) -> list[str]:
-    """One markdown list line per scene with target_lost trials: count, the first `show` trials (seed, and why when
-    the record says)."""
+def lost_lines(trials: Sequence[TrialRecord], show: int = 3, termination: str = TARGET_LOST) -> list[str]:
+    """One markdown list line per scene with trials of `termination` (target_lost by default): count, the first
+    `show` trials (seed, and why when the record says)."""
     by_scene: dict[str, list[TrialRecord]] = {}
     for t in trials:
-        if t.termination == TARGET_LOST:
+        if t.termination == termination:
             by_scene.setdefault(t.scene, []).append(t)
     return [f"- {scene}: {len(ts)} × ("
             + "; ".join(f"seed {t.seed}" + (f": {t.message}" if t.message else "") for t in ts[:show])

@@ -6,6 +6,8 @@ execute it, until
   - the target is grasped (the trial is *completed*),
   - the target has left the workspace (``target_lost``: the target memory's evidence, confirmed, or overruled, by
     the simulator's ground truth, SimEnv.target_outside),
+  - the search for a hidden target is over (``target_not_found``: hidden with nothing over its last-seen place for
+    target_memory.SEARCH_LIMIT_EXACT observations in a row, SEARCH_LIMIT_TRACKED for a point or mask target),
   - ``max_failed_grasps`` (5) grasp attempts have failed, or
   - ``max_actions`` (30) actions have been taken.
 Every decision the policy returns counts as an action, refused ones included (they are logged with the refusal
@@ -64,6 +66,7 @@ from pg_core.target_mask import target_mask
 from pg_learning.evaluation.errors import ERROR, mark_error
 from pg_learning.evaluation.target_by import COLOUR, TrialTarget, check_target_by
 from pg_policy.models.click_segmentation import DEFAULT_SEGMENTER
+from pg_policy.perception.target_memory import SEARCH_LIMIT_EXACT, SEARCH_LIMIT_TRACKED
 from pg_policy.target_loop.episode import Episode, Limits, Outcome
 from pg_policy.target_loop.episode import check_eval_seed as check_seed
 from pg_policy.target_loop.loop_types import PolicyObservation
@@ -115,10 +118,10 @@ def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: L
     """
     t0 = time.perf_counter()
     rec = TrialRecord(scene=scene_name or str(scene), seed=seed)
-    ep = Episode(limits or Limits())
     primitives = getattr(getattr(env, "geometry", None), "primitives", None)
     target = (None if target_by == COLOUR
               else TrialTarget(target_by, getattr(primitives, "push_length", None), segmenter))
+    ep = Episode(limits or Limits(), search_limit=SEARCH_LIMIT_EXACT if target is None else SEARCH_LIMIT_TRACKED)
     stage = "policy.reset"
     try:
         policy.reset(seed)

@@ -12,7 +12,14 @@ The target has left the workspace (`TargetMemory.lost`) when it is hidden after 
 - seen leaving: last seen with a cell within LEAVING_CELLS of the heightmap border (partly outside already), then
   hidden in the next observation;
 - last seen within EDGE_CELLS of the border, then hidden in LOST_AFTER_HIDDEN observations in a row.
-A target hidden in the middle of the workspace is never lost: it is searched for.
+A target hidden in the middle of the workspace is never lost: it is searched for, as long as the search has
+somewhere to look. The search is over (`TargetMemory.not_found`) after `search_limit` observations in a row with the
+target hidden and nothing covering the place it was last seen (no search goal): then it is neither under what lies
+there nor in view, and the goal-agnostic actions that remain would only lift or push other objects. The limit
+depends on how the mask is made (the episode's caller chooses): SEARCH_LIMIT_EXACT for a colour's mask, which is
+exact, so that a hidden target lies under something; SEARCH_LIMIT_TRACKED for a tracked point or mask target, whose
+"hidden" mostly means that the tracker lost an object lying in view (docs/RESULTS.md, "Searches that find
+nothing"). None: the search never ends.
 
 A push "changed nothing" when fewer than pg_policy.perception.scene_change.CHANGE_MIN_CELLS cells within
 FUTILE_WATCH_RADIUS_M of its start changed height by CHANGE_DEPTH_M or more (either way) from the heightmap it was
@@ -39,6 +46,8 @@ MIN_SEARCH_CELLS = 10  # fewer object cells there: nothing covers the last-seen 
 LEAVING_CELLS = 2  # last seen this close to the heightmap border (cells): partly outside, seen leaving
 EDGE_CELLS = 10  # last seen this close to the border (cells; 2 cm at 0.002 m): at the workspace edge
 LOST_AFTER_HIDDEN = 2  # observations in a row without the target, after last seen at the edge, that make it lost
+SEARCH_LIMIT_EXACT = 8  # observations hidden with nothing over the last-seen place that end a colour target's search
+SEARCH_LIMIT_TRACKED = 4  # the same for a tracked point or mask target (the tracker's "not found")
 FUTILE_PUSH_RADIUS_M = 0.01  # a push that changed nothing is not repeated within this of its start (same rotation)
 FUTILE_WATCH_RADIUS_M = 0.15  # a push changed something when heights changed within this of its start (m): its
 # 0.13 m path in any direction
@@ -81,7 +90,8 @@ class Sighting:
 class TargetSearch:
     """What the memory knows with one observation (handed to the policy as `obs.search`): whether the target is
     visible (at least `min_cells` cells), its cells now, its last sighting (None: never seen), the observations in a
-    row without it (0 while visible), and the pushes that changed nothing in this episode."""
+    row without it (0 while visible), the pushes that changed nothing in this episode, and the observations in a row
+    without it while nothing covered its last-seen place (`uncovered_for`, 0 while visible or searched for)."""
 
     visible: bool
     cells: int
@@ -89,6 +99,7 @@ class TargetSearch:
     hidden_for: int
     futile_pushes: tuple[Push, ...] = ()
     futile_radius_m: float = FUTILE_PUSH_RADIUS_M
+    uncovered_for: int = 0
 
     def goal(self, hm: Heightmap, object_height_m: float = OBJECT_HEIGHT_M) -> np.ndarray | None:
         """(H, W) bool search goal while the target is hidden: the valid cells higher than `object_height_m` (m; by
@@ -128,17 +139,24 @@ def border_distance(mask: np.ndarray) -> int:
 
 class TargetMemory:
     """One episode's memory (module docstring). `min_cells`: target cells from which the target counts as visible.
-    Not thread-safe; one per running episode."""
+    `search_limit`: observations hidden with nothing over the last-seen place that end the search (module docstring;
+    None: never; ValueError below 1). Not thread-safe; one per running episode."""
 
-    def __init__(self, min_cells: int = MIN_VISIBLE_CELLS, futile_radius_m: float = FUTILE_PUSH_RADIUS_M) -> None:
+    def __init__(self, min_cells: int = MIN_VISIBLE_CELLS, futile_radius_m: float = FUTILE_PUSH_RADIUS_M,
+                 search_limit: int | None = SEARCH_LIMIT_EXACT) -> None:
+        if search_limit is not None and (isinstance(search_limit, bool) or int(search_limit) != search_limit
+                                         or search_limit < 1):
+            raise ValueError(f"search_limit must be an integer >= 1 or None, got {search_limit!r}")
         self.min_cells = int(min_cells)
         self.futile_radius_m = float(futile_radius_m)
+        self.search_limit = None if search_limit is None else int(search_limit)
         self.reset()
 
     def reset(self) -> None:
         """Forget everything: a new episode."""
         self.last_seen: Sighting | None = None
         self.hidden_for = 0
+        self.uncovered_for = 0
         self.futile: list[Push] = []
         self.search = TargetSearch(False, 0, None, 0, (), self.futile_radius_m)
         self._hm: Heightmap | None = None  # the heightmap of the latest observation
@@ -167,8 +185,11 @@ class TargetMemory:
             self.hidden_for = 0
         else:
             self.hidden_for += 1
+        search = TargetSearch(visible, cells, self.last_seen, self.hidden_for, tuple(self.futile), self.futile_radius_m)
+        uncovered = not visible and self.last_seen is not None and search.goal(hm) is None
+        self.uncovered_for = self.uncovered_for + 1 if uncovered else 0
         self.search = TargetSearch(visible, cells, self.last_seen, self.hidden_for, tuple(self.futile),
-                                   self.futile_radius_m)
+                                   self.futile_radius_m, self.uncovered_for)
         return self.search
 
     def acted(self, primitive: str, rotation: int, x: float, y: float, executed: bool) -> None:
@@ -198,3 +219,13 @@ class TargetMemory:
         if seen.at_edge and self.hidden_for >= LOST_AFTER_HIDDEN:
             return f"hidden for {self.hidden_for} actions since last seen at the workspace edge {seen.where}"
         return None
+
+    def not_found(self) -> str | None:
+        """Why the search for a hidden target is over (module docstring), None while it goes on: visible, never seen,
+        searched for under what covers its last-seen place, or fewer than `search_limit` observations in a row
+        without either."""
+        seen = self.last_seen
+        if self.search_limit is None or seen is None or self.uncovered_for < self.search_limit:
+            return None
+        return (f"not in view for {self.uncovered_for} observations in a row, and nothing covers where it was last "
+                f"seen {seen.where}")

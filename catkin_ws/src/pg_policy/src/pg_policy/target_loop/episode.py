@@ -12,7 +12,9 @@ target body is outside the workspace) and each action's outcome (`record`), and 
 The episode is over at the first of, in this order (TERMINATION_RULES):
   completed (the target grasped; never in goal-agnostic episodes), target_lost (it left the workspace: the target
   memory's evidence, pg_policy.perception.target_memory, or in simulation the ground truth, which also overrules the
-  evidence), refused (`max_refused_in_row` refused actions in a row; the ROS call only), failed_grasps
+  evidence), target_not_found (the search is over: hidden for the memory's `search_limit` observations in a row
+  with nothing covering where it was last seen, TargetMemory.not_found; the robot's own evidence, which the ground
+  truth does not overrule), refused (`max_refused_in_row` refused actions in a row; the ROS call only), failed_grasps
   (`max_failed_grasps` failed attempts), max_actions (`max_actions` actions).
 The loops stop an episode for their own reasons with `stop`: time_budget, cancelled and scene_reset (the ROS call),
 error (an exception inside it), target_hidden and scene_empty (training).
@@ -35,7 +37,7 @@ import numpy as np
 
 from pg_core.heightmap import Heightmap
 from pg_core.seeds import MIN_EVAL_SEED, is_eval_seed
-from pg_policy.perception.target_memory import TargetMemory, TargetSearch
+from pg_policy.perception.target_memory import SEARCH_LIMIT_EXACT, TargetMemory, TargetSearch
 
 DEFAULT_MAX_ACTIONS = 30  # actions (pushes, grasps and refused ones) per episode
 DEFAULT_MAX_FAILED_GRASPS = 5  # failed grasp attempts that end an episode
@@ -45,6 +47,7 @@ COMPLETED = "completed"  # the target was grasped
 FAILED_GRASPS = "failed_grasps"  # max_failed_grasps grasp attempts failed
 MAX_ACTIONS = "max_actions"  # the action budget is spent
 TARGET_LOST = "target_lost"  # the target left the workspace
+TARGET_NOT_FOUND = "target_not_found"  # the search for a hidden target is over (nothing covers its last-seen place)
 ERROR = "error"  # an exception inside the episode (policy, simulator, executor)
 TIME_BUDGET = "time_budget"  # ROS call: its wall-clock budget is spent
 CANCELLED = "cancelled"  # ROS call: the client cancelled it
@@ -52,8 +55,8 @@ REFUSED = "refused"  # ROS call: max_refused_in_row primitives in a row were ref
 SCENE_RESET = "scene_reset"  # ROS call: the scene was replaced under it
 TARGET_HIDDEN = "target_hidden"  # training: a goal-conditioned episode ends when its target is not visible
 SCENE_EMPTY = "scene_empty"  # training: no object is left
-TERMINATIONS = (COMPLETED, FAILED_GRASPS, MAX_ACTIONS, TARGET_LOST, ERROR, TIME_BUDGET, CANCELLED, REFUSED,
-                SCENE_RESET, TARGET_HIDDEN, SCENE_EMPTY)
+TERMINATIONS = (COMPLETED, FAILED_GRASPS, MAX_ACTIONS, TARGET_LOST, TARGET_NOT_FOUND, ERROR, TIME_BUDGET, CANCELLED,
+                REFUSED, SCENE_RESET, TARGET_HIDDEN, SCENE_EMPTY)
 FUTILE_PUSH_REFUSAL = "futile push not repeated"  # the message of a push `vet` refuses
 
 
@@ -87,20 +90,23 @@ class Episode:
     """Counts and termination of one episode (module docstring). `target`: the target's name for messages;
     `goal_agnostic`: no target (training's first stage): a lifted object is a successful grasp and never completes
     the episode; `max_refused_in_row`: refused actions in a row that end it (None: never); `memory`: the target
-    memory (a fresh one by default)."""
+    memory (by default a fresh one whose search ends after `search_limit` observations: SEARCH_LIMIT_EXACT for a
+    colour's mask, target_memory.SEARCH_LIMIT_TRACKED for a tracked target, None: never)."""
 
     def __init__(self, limits: Limits | None = None, target: str = "", goal_agnostic: bool = False,
-                 max_refused_in_row: int | None = None, memory: TargetMemory | None = None) -> None:
+                 max_refused_in_row: int | None = None, memory: TargetMemory | None = None,
+                 search_limit: int | None = SEARCH_LIMIT_EXACT) -> None:
         self.limits = limits or Limits()
         self.target = target
         self.goal_agnostic = goal_agnostic
         self.max_refused_in_row = max_refused_in_row
-        self.memory = memory or TargetMemory()
+        self.memory = memory or TargetMemory(search_limit=search_limit)
         self.memory.reset()
         self.actions = self.grasps = self.target_grasps = self.failed_grasps = self.pushes = 0
         self.refused = self.refused_in_row = 0
         self.last_message = ""
         self.lost_why: str | None = None
+        self.not_found_why: str | None = None
         self.termination = ""
         self.why = ""
 
@@ -113,8 +119,9 @@ class Episode:
     def observe(self, hm: Heightmap, target: np.ndarray, truth_outside: bool | None = None) -> TargetSearch:
         """One observation: heightmap `hm` and the target's (H, W) bool mask in it; `truth_outside`: the simulator's
         ground truth that the target body lies outside the workspace box (None where unknown: a real cell). Updates
-        the target memory and decides target_lost; returns the TargetSearch for the policy."""
+        the target memory and decides target_lost and target_not_found; returns the TargetSearch for the policy."""
         search = self.memory.see(hm, target, self.actions)
+        self.not_found_why = None if self.goal_agnostic else self.memory.not_found()
         evidence = self.memory.lost()
         if truth_outside is None:
             self.lost_why = evidence
@@ -185,6 +192,7 @@ TERMINATION_RULES: tuple[tuple[str, Callable[[Episode], bool], Callable[[Episode
     (COMPLETED, lambda e: e.target_grasps > 0 and not e.goal_agnostic,
      lambda e: f"target '{e.target}' grasped" if e.target else "target grasped"),
     (TARGET_LOST, lambda e: e.lost_why is not None, lambda e: f"target lost: {e.lost_why}"),
+    (TARGET_NOT_FOUND, lambda e: e.not_found_why is not None, lambda e: f"target not found: {e.not_found_why}"),
     (REFUSED, _refused_in_row, lambda e: f"{e.refused_in_row} primitives in a row failed, last: {e.last_message}"),
     (FAILED_GRASPS, lambda e: e.failed_grasps >= e.limits.max_failed_grasps,
      lambda e: f"gave up after {e.failed_grasps} failed grasps"),

@@ -30,7 +30,7 @@ from typing import TypeVar
 import numpy as np
 
 from pg_core.target_mask import MIN_VISIBLE_CELLS
-from pg_policy.target_loop.episode import ERROR, TARGET_LOST
+from pg_policy.target_loop.episode import ERROR, TARGET_LOST, TARGET_NOT_FOUND
 from pg_policy.target_loop.records import TrialRecord
 
 T = TypeVar("T")
@@ -68,6 +68,7 @@ def scene_metrics(trials: Sequence[TrialRecord]) -> dict[str, Stat]:
         "refused": mean_se(t.refused for t in trials),
         "errors": mean_se(1.0 if t.termination == ERROR else 0.0 for t in trials),  # mean x n = error trials
         "lost": mean_se(1.0 if t.termination == TARGET_LOST else 0.0 for t in trials),  # mean x n = lost targets
+        "not_found": mean_se(1.0 if t.termination == TARGET_NOT_FOUND else 0.0 for t in trials),  # searches in vain
     }
 
 

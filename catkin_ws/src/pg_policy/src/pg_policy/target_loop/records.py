@@ -28,7 +28,8 @@ class TrialRecord:
     scene: str
     seed: int
     completed: bool = False
-    termination: str = ""  # "completed" | "target_lost" | "failed_grasps" | "max_actions" | "error" (episode.py)
+    termination: str = ""  # "completed", "target_lost", "target_not_found", "failed_grasps", "max_actions", "error"
+    # (pg_policy.target_loop.episode)
     grasps: int = 0  # executed grasp attempts
     target_grasps: int = 0
     failed_grasps: int = 0

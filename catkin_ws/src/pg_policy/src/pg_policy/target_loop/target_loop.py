@@ -2,7 +2,8 @@
 
 heightmap -> target mask -> target memory -> policy decision -> execute the primitive -> wait for a fresh heightmap
 -> check, under the one episode protocol (pg_policy.target_loop.episode, shared with the evaluation and training):
-until the target is held, it has left the workspace ("target lost: <why>"), `max_failed_grasps` grasps failed,
+until the target is held, it has left the workspace ("target lost: <why>"), the search for a hidden target has
+found nothing ("target not found: <why>", pg_policy.perception.target_memory), `max_failed_grasps` grasps failed,
 `max_actions` actions were taken, MAX_FAILED_PRIMITIVES primitives in a row were refused or aborted, the call's time
 budget is spent, the call is cancelled, or the scene was replaced under the call (RESET_MESSAGE: the scene token
 `scene_epoch` changed, e.g. the simulator's reset count). What differs from the evaluation is where observations
@@ -50,6 +51,7 @@ import numpy as np
 from pg_core.heap_trim import release_free_memory
 from pg_core.target_mask import MIN_VISIBLE_CELLS
 from pg_policy.models.click_segmentation import DEFAULT_SEGMENTER, load_segmenter
+from pg_policy.perception.target_memory import SEARCH_LIMIT_EXACT, SEARCH_LIMIT_TRACKED
 from pg_policy.target_loop.episode import (
     CANCELLED,
     COMPLETED,
@@ -230,7 +232,8 @@ class TargetLoop:
 
     def _episode(self, target: str, limits: LoopLimits) -> Episode:
         return Episode(Limits(limits.max_actions, limits.max_failed_grasps), target=target,
-                       max_refused_in_row=MAX_FAILED_PRIMITIVES)
+                       max_refused_in_row=MAX_FAILED_PRIMITIVES,
+                       search_limit=SEARCH_LIMIT_EXACT if self._follower is None else SEARCH_LIMIT_TRACKED)
 
     def _run(self, spec: TargetSpec, limits: LoopLimits, cancelled: Callable[[], bool] | None) -> LoopResult:
         target = target_label(spec)
