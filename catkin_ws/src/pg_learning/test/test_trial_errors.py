@@ -150,7 +150,8 @@ def test_results_count_and_list_the_errors(tmp_path):
     out = tmp_path / "ev"
     paths = write_results(out, recs, {"policy": "flaky", "seed": 1_000_000, "trials": 3})
     doc = json.loads(paths["json"].read_text())
-    assert doc["summary"]["random-6"]["counts"] == {"trials": 4, "completed": 0, "errors": 2, "lost": 0}
+    assert doc["summary"]["random-6"]["counts"] == {"trials": 4, "completed": 0, "errors": 2, "lost": 0,
+                                                      "not_found": 0}
     assert doc["summary"]["all"]["counts"]["errors"] == 3 and doc["summary"]["random-5"]["errors"]["n"] == 3
     reason = "policy.act: ValueError: zero-size array to reduction operation minimum which has no identity"
     assert doc["errors"] == [{"reason": reason, "count": 3, "trials": [["random-5", 1_000_001],
@@ -273,9 +274,10 @@ def test_cli_eval_with_workers_survives_a_raise_and_a_dying_worker(raising_plugi
     doc = json.loads((out / "results.json").read_text())
     assert [t["seed"] for t in doc["trials"]] == [1_000_000, 1_000_001, 1_000_002]
     _check_raised(doc)
-    assert doc["trials"][0]["termination"] in ("completed", "target_lost", "failed_grasps", "max_actions")
+    assert doc["trials"][0]["termination"] in ("completed", "target_lost", "target_not_found", "failed_grasps",
+                                                "max_actions")
     died = doc["trials"][2]
     assert (died["termination"], died["error_at"]) == ("error", "worker")
     assert died["error"].startswith("process died running this trial")
     assert doc["summary"]["packed/case01"]["counts"] == {"trials": 3, "completed": int(doc["trials"][0]["completed"]),
-                                                         "errors": 2, "lost": 0}
+                                                         "errors": 2, "lost": 0, "not_found": 0}
