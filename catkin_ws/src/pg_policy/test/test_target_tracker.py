@@ -305,3 +305,27 @@ def test_a_target_mostly_covered_in_its_first_view_is_found_when_a_push_uncovers
     truth = np.zeros((224, 224), bool)
     truth[100:120, 115:135] = True
     assert _iou(track.mask, truth) >= 0.9, track.why
+
+
+def _block(hm: Heightmap, row: int, col: int, size: int, height: float, rgb: tuple[int, int, int]) -> None:
+    """A `size` x `size` cell block of `height` (m) and colour `rgb` in `hm`, first cell (row, col)."""
+    hm.height[row : row + size, col : col + size], hm.color[row : row + size, col : col + size] = height, rgb
+
+
+@pytest.mark.parametrize("moved", [False, True], ids=["in-place", "pushed"])
+def test_a_block_mostly_covered_in_its_first_view_grows_to_its_whole_top_when_uncovered(moved):
+    """A 4.6 cm block (529 cells, the size of the protocol's cubes) seen as a 6-cell strip under a cover, then
+    uncovered where it lay, or uncovered and carried 3 cm: the track takes in its whole top, not the strip."""
+    first = _blocks()
+    _block(first, 100, 100, 23, 0.03, RED)
+    _block(first, 96, 106, 30, 0.05, BLUE)  # a higher blue block covers all but a 6-cell strip of the target
+    target = np.zeros((224, 224), bool)
+    target[100:123, 100:106] = True
+    tracker = TargetTracker()
+    tracker.start(first, target)
+    after, col = _blocks(), 115 if moved else 100
+    _block(after, 100, col, 23, 0.03, RED)
+    track = tracker.update(after, (0.0, 0.0))
+    truth = np.zeros((224, 224), bool)
+    truth[100:123, col : col + 23] = True
+    assert _iou(track.mask, truth) >= 0.9, track.why

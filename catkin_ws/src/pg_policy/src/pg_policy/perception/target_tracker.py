@@ -35,7 +35,8 @@ that did not move), is scored against the first view's record; when none is foun
 
 Two guards keep a track from jumping. A segment whose centroid lies farther than GATE_M plus the predicted
 displacement from the predicted centroid is not the target (a push carries an object push_length at most; a failed
-grasp moves it a few centimetres). A segment more than MERGE_RATIO times the reference's area that overlaps
+grasp moves it a few centimetres). A segment more than MERGE_RATIO times the reference's area (and, where the
+record is partly covered, more than UNCOVERED_MAX_M2: a target uncovered whole) that overlaps
 the predicted mask (the target merged with a touching neighbour of its colour) is cut to the cells within
 CROP_CELLS of the predicted mask, and the track is unsure. A predicted displacement may be wrong (the push missed
 the target), so every segment is also scored against the place the target was last seen, unmoved, and keeps the
@@ -103,7 +104,7 @@ STILL_COLOUR = 10.0  # ... and its Lab colour (lightness weighted) by less than 
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
 UNKNOWN_TERM = 0.5  # the area and shape terms of a segment larger than a partly covered target's record
 IN_PLACE_RATIO = 2.5  # a target in place grows to at most this many times the reference area (half covered: 2)
-UNCOVERED_MAX_M2 = 0.002  # ... or, when a cover left, to this area (m^2; 4.5 x 4.5 cm) if that is more
+UNCOVERED_MAX_M2 = 0.0025  # ... or, when a cover left, to this area (m^2; 5 x 5 cm) if that is more
 
 
 @dataclass(frozen=True, eq=False)
@@ -228,13 +229,16 @@ class TargetTracker:
         assert self.reference is not None
         ref = self.reference
         grow = np.ones((2 * CROP_CELLS + 1,) * 2, np.uint8)
+        merge_cells = MERGE_RATIO * ref.area
+        if ref.partial:  # more of it may come into view: a segment of an uncovered target's size is not a merge
+            merge_cells = max(merge_cells, UNCOVERED_MAX_M2 / self.resolution**2)
         scored = []
         for label in range(1, int(labels.max()) + 1):
             whole = (labels == label) & ~others
             if whole.sum() < MIN_OBJECT_CELLS:
                 continue
             for predicted, expected in places:
-                merged = int(whole.sum()) > MERGE_RATIO * ref.area and bool((whole & predicted).any())
+                merged = int(whole.sum()) > merge_cells and bool((whole & predicted).any())
                 seg = whole & (cv2.dilate(predicted.astype(np.uint8), grow) > 0) if merged else whole
                 seen = describe(hm, seg, lab)
                 if math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) > gate:
