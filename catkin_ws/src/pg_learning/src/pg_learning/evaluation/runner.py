@@ -66,7 +66,7 @@ from pg_core.target_mask import target_mask
 from pg_learning.evaluation.errors import ERROR, mark_error
 from pg_learning.evaluation.target_by import COLOUR, TrialTarget, check_target_by
 from pg_policy.models.click_segmentation import DEFAULT_SEGMENTER
-from pg_policy.perception.target_memory import SEARCH_LIMIT_EXACT, SEARCH_LIMIT_TRACKED
+from pg_policy.perception.target_memory import search_limit
 from pg_policy.target_loop.episode import Episode, Limits, Outcome
 from pg_policy.target_loop.episode import check_eval_seed as check_seed
 from pg_policy.target_loop.loop_types import PolicyObservation
@@ -121,7 +121,7 @@ def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: L
     primitives = getattr(getattr(env, "geometry", None), "primitives", None)
     target = (None if target_by == COLOUR
               else TrialTarget(target_by, getattr(primitives, "push_length", None), segmenter))
-    ep = Episode(limits or Limits(), search_limit=SEARCH_LIMIT_EXACT if target is None else SEARCH_LIMIT_TRACKED)
+    ep = Episode(limits or Limits(), search_limit=search_limit(target is not None))
     stage = "policy.reset"
     try:
         policy.reset(seed)

@@ -33,7 +33,7 @@ positions are cell indices (row, col) or `world` metres (x, y); heights and dist
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -51,6 +51,12 @@ SEARCH_LIMIT_TRACKED = 4  # the same for a tracked point or mask target (the tra
 FUTILE_PUSH_RADIUS_M = 0.01  # a push that changed nothing is not repeated within this of its start (same rotation)
 FUTILE_WATCH_RADIUS_M = 0.15  # a push changed something when heights changed within this of its start (m): its
 # 0.13 m path in any direction
+
+
+def search_limit(tracked: bool) -> int:
+    """The search limit of a target named by a colour (`tracked` False) or tracked from a point or a mask."""
+    return SEARCH_LIMIT_TRACKED if tracked else SEARCH_LIMIT_EXACT
+
 
 Push = tuple[int, float, float]  # (rotation index, x, y in `world` metres) of a push's start
 
@@ -188,8 +194,7 @@ class TargetMemory:
         search = TargetSearch(visible, cells, self.last_seen, self.hidden_for, tuple(self.futile), self.futile_radius_m)
         uncovered = not visible and self.last_seen is not None and search.goal(hm) is None
         self.uncovered_for = self.uncovered_for + 1 if uncovered else 0
-        self.search = TargetSearch(visible, cells, self.last_seen, self.hidden_for, tuple(self.futile),
-                                   self.futile_radius_m, self.uncovered_for)
+        self.search = replace(search, uncovered_for=self.uncovered_for)
         return self.search
 
     def acted(self, primitive: str, rotation: int, x: float, y: float, executed: bool) -> None:

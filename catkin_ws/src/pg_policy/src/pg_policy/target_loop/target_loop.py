@@ -51,7 +51,7 @@ import numpy as np
 from pg_core.heap_trim import release_free_memory
 from pg_core.target_mask import MIN_VISIBLE_CELLS
 from pg_policy.models.click_segmentation import DEFAULT_SEGMENTER, load_segmenter
-from pg_policy.perception.target_memory import SEARCH_LIMIT_EXACT, SEARCH_LIMIT_TRACKED
+from pg_policy.perception.target_memory import search_limit
 from pg_policy.target_loop.episode import (
     CANCELLED,
     COMPLETED,
@@ -233,7 +233,7 @@ class TargetLoop:
     def _episode(self, target: str, limits: LoopLimits) -> Episode:
         return Episode(Limits(limits.max_actions, limits.max_failed_grasps), target=target,
                        max_refused_in_row=MAX_FAILED_PRIMITIVES,
-                       search_limit=SEARCH_LIMIT_EXACT if self._follower is None else SEARCH_LIMIT_TRACKED)
+                       search_limit=search_limit(self._follower is not None))
 
     def _run(self, spec: TargetSpec, limits: LoopLimits, cancelled: Callable[[], bool] | None) -> LoopResult:
         target = target_label(spec)
