@@ -139,6 +139,8 @@ class TargetTracker:
         self.last_lab: np.ndarray | None = None  # its Lab image ((H, W, 3) float32)
         self.sure_mask: np.ndarray | None = None  # where the target was last seen by a sure track ((H, W) bool)
         self.unsure = False  # whether the latest track that found the target was unsure
+        self.last_labels: np.ndarray | None = None  # segment_objects(last_hm), None until needed
+        self._segmented: tuple[Heightmap, np.ndarray] | None = None  # the heightmap `update` segments, its labels
 
     def start(self, hm: Heightmap, mask: np.ndarray) -> Track:
         """Record the target `mask` ((H, W) bool, non-empty) as seen in `hm`; returns it as a sure Track.
@@ -174,6 +176,7 @@ class TargetTracker:
         assert self.reference is not None and self.last_mask is not None and self.sure_mask is not None
         dx, dy = shift_xy if shift_xy is not None else (0.0, 0.0)
         labels = segment_objects(hm)
+        self._segmented = (hm, labels)
         if labels.max() == 0:
             return Track(np.zeros_like(self.last_mask), 0.0, True, "no object in view")
         lab = lab_image(hm.color)
@@ -184,7 +187,7 @@ class TargetTracker:
         covered = self.last_mask & arrived & recoloured  # another object on it (the target tilting keeps its colour)
         if not (dx or dy) and (stay | covered).sum() >= STAY_FRACTION * self.last_mask.sum():
             return self._covered(hm, lab, stay, covered)
-        others = still & ~self.last_mask  # cells of other objects that did not move
+        others = still & ~self.last_mask & self._stayed(still)  # cells of other objects that did not move
         cen = describe(hm, self.last_mask, lab).centroid
         gate = (GATE_M + math.hypot(dx, dy)) / self.resolution  # cells
         # where the target should be: moved as predicted, and (a prediction can be wrong) where it was
@@ -324,6 +327,22 @@ class TargetTracker:
     def _found(self, hm: Heightmap, mask: np.ndarray, lab: np.ndarray) -> None:
         """Remember `mask` as the target's place, seen in `hm` (`lab`: its Lab image)."""
         self.last_mask, self.last_hm, self.last_lab = mask.copy(), hm, lab
+        self.last_labels = self._segmented[1] if self._segmented is not None and self._segmented[0] is hm else None
+
+    def _stayed(self, still: np.ndarray) -> np.ndarray:
+        """(H, W) bool: the cells of the segments of the view the target was last found in that stayed, each with
+        UNMOVED_FRACTION of its cells in `still` ((H, W) bool, `_changes`). A cell that looks unchanged in a segment
+        that moved away is a look-alike that moved in (another object of its colour and height), not an object
+        that stayed."""
+        assert self.last_hm is not None
+        if self.last_labels is None:
+            self.last_labels = segment_objects(self.last_hm)
+        labels = self.last_labels
+        total = np.bincount(labels.ravel(), minlength=int(labels.max()) + 1)
+        kept = np.bincount(labels[still].ravel(), minlength=total.size)
+        stayed = kept >= UNMOVED_FRACTION * np.maximum(total, 1)
+        stayed[0] = False
+        return stayed[labels]
 
     def _refind(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, others: np.ndarray, why: str) -> Track:
         """The target looked for anywhere by appearance (module docstring) among the segments that moved since it
