@@ -329,3 +329,18 @@ def test_a_block_mostly_covered_in_its_first_view_grows_to_its_whole_top_when_un
     truth = np.zeros((224, 224), bool)
     truth[100:123, col : col + 23] = True
     assert _iou(track.mask, truth) >= 0.9, track.why
+
+
+def test_a_target_pushed_into_the_place_a_look_alike_left_is_tracked_whole():
+    """The target pushed 12 cells into the place of a look-alike (one colour, one height) that the same push carried
+    on: the cells where the look-alike lay look unchanged, but the look-alike's segment moved away, so they are the
+    target's, not an unmoved neighbour's (a disc pushed into a cube's place in packed scenes)."""
+    first = _blocks((100, 100, RED), (100, 124, RED))
+    target = np.zeros((224, 224), bool)
+    target[100:120, 100:120] = True
+    tracker = TargetTracker()
+    tracker.start(first, target)
+    track = tracker.update(_blocks((100, 112, RED), (100, 150, RED)), (0.048, 0.0))
+    truth = np.zeros((224, 224), bool)
+    truth[100:120, 112:132] = True
+    assert _iou(track.mask, truth) >= 0.9, track.why
