@@ -19,8 +19,10 @@ next with, so that it is in place again once the cover leaves. An "in place" or 
 the last track that found the target: it says the object did not move, not that it is the target.
 
 Otherwise the target moved, and every segment, less the unchanged cells that were not the target's (neighbours
-that did not move), is scored against the first view's record; when none is found so, every whole segment is
-(the last mask was another object, which a grasp lifted: the target stayed where it was). Each term lies in [0, 1]:
+that did not move: unchanged cells of a segment of the last view that kept UNMOVED_FRACTION of its cells; where a
+look-alike of the target's colour and height moved away, its old cells look unchanged under the target that moved
+in), is scored against the first view's record; when none is found so, every whole segment is (the last mask was
+another object, which a grasp lifted: the target stayed where it was). Each term lies in [0, 1]:
 
 - colour: exp(-dE / COLOUR_SCALE), dE the CIE94 colour difference (`delta_e94`) with lightness weighted by
   LIGHTNESS_WEIGHT: shading and a tilted face change lightness and chroma together and leave the hue, which CIE94
