@@ -25,8 +25,9 @@ COVERED_BORDER = 0.25  # a target is partly covered when this fraction of its bo
 @dataclass(frozen=True, eq=False)
 class Appearance:
     """What a mask shows: median Lab (3,), area (cells), median and top height (m), first Hu moment, minor/major
-    axis ratio in [0, 1], centroid (row, col) in cells, and (the tracked target's record only) whether it is
-    partly covered (`partly_covered`)."""
+    axis ratio in [0, 1], centroid (row, col) in cells, extent (its area over that of its smallest enclosing
+    rectangle, `extent`: a square 0.9-1, a disc 0.76, a triangle 0.5) and (the tracked target's record only) whether
+    it is partly covered (`partly_covered`)."""
 
     lab: np.ndarray
     area: int
@@ -36,6 +37,7 @@ class Appearance:
     ratio: float
     centroid: tuple[float, float]
     partial: bool = False
+    extent: float = 1.0
 
 
 def describe(hm: Heightmap, mask: np.ndarray, lab: np.ndarray | None = None) -> Appearance:
@@ -50,7 +52,16 @@ def describe(hm: Heightmap, mask: np.ndarray, lab: np.ndarray | None = None) -> 
     ratio = math.sqrt(max(low, 0.0) / high) if high > 0 else 1.0
     return Appearance(np.median(lab[cells], axis=0), int(mask.sum()), float(np.median(heights)),
                       float(np.quantile(heights, TOP_QUANTILE)), float(cv2.HuMoments(m)[0, 0]), ratio,
-                      (m["m01"] / m["m00"], m["m10"] / m["m00"]))
+                      (m["m01"] / m["m00"], m["m10"] / m["m00"]), extent=extent(mask))
+
+
+def extent(mask: np.ndarray) -> float:
+    """The (H, W) bool non-empty `mask`'s cell count over the area (cells) of its smallest enclosing rotated
+    rectangle (cv2.minAreaRect of the cell centres, each side grown by one cell), at most 1: rotation invariant up
+    to the grid (a square reads 0.90-1.0 at any angle)."""
+    pts = np.column_stack(np.nonzero(mask)).astype(np.float32)
+    (_, _), (w, h), _ = cv2.minAreaRect(pts)
+    return min(1.0, float(mask.sum()) / ((w + 1.0) * (h + 1.0)))
 
 
 def partly_covered(hm: Heightmap, mask: np.ndarray) -> bool:

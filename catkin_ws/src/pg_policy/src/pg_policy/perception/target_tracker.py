@@ -87,6 +87,8 @@ COLOUR_SCALE = 12.0  # CIE94 difference (lightness weighted) at which the colour
 HEIGHT_SCALE_M = 0.01  # median height difference (m) at which the height term falls to 1/e
 HU1_SCALE = 0.03  # first Hu moment difference (a square 0.167, a 2:1 rectangle 0.208) weighing 1/e
 RATIO_SCALE = 0.3  # minor/major axis ratio difference (a square 1, a 2:1 rectangle 0.5) weighing 1/e
+EXTENT_SLACK = 0.05  # extent differences up to this are the grid's (a square turned on it: 0.90-1.0) ...
+EXTENT_SCALE = 0.1  # ... and beyond it this much weighs 1/e (a disc 0.76 against a square 0.9-1: 0.15-0.35)
 DISTANCE_SCALE_M = 0.05  # centroid distance (m) from the predicted place at which the nearness term falls to 1/e
 W_COLOUR, W_FORM, W_PLACE = 0.3, 0.3, 0.4  # weights of the terms (sum 1)
 FOUND_SCORE = 0.45  # a best segment scoring below this is not the target: the target is hidden
@@ -97,6 +99,7 @@ COLOUR_FLOOR = 0.4  # a segment whose colour term stays under this is not the ta
 GATE_M = 0.12  # a segment's centroid this far (m) beyond the predicted displacement from the predicted one: not it
 MERGE_RATIO = 3.5  # a segment over this many times the reference area that overlaps the prediction is merged (a
 # target partly covered in its first view grows as a push uncovers it: at 1.8 most "merges" were such targets)
+PATH_FRACTIONS = (1.0, 2 / 3, 1 / 3, 0.0)  # places along a predicted displacement a moved target is scored at
 CROP_CELLS = 3  # a merged segment is cut to its cells within this many cells of the predicted mask
 REFIND_SCORE = 0.8  # a target not found near its place is re-found where colour and form alone score this much
 REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
@@ -192,11 +195,11 @@ class TargetTracker:
         others = still & ~self.last_mask & self._stayed(still)  # cells of other objects that did not move
         cen = describe(hm, self.last_mask, lab).centroid
         gate = (GATE_M + math.hypot(dx, dy)) / self.resolution  # cells
-        # where the target should be: moved as predicted, and (a prediction can be wrong) where it was
-        places = [(shifted(self.last_mask, round(dy / self.resolution), round(dx / self.resolution)),
-                   (cen[0] + dy / self.resolution, cen[1] + dx / self.resolution))]
-        if dx or dy:
-            places.append((self.last_mask, cen))
+        # where the target should be: moved as predicted, and (a push may carry it less far: it meets other
+        # objects, turns, slides past) at PATH_FRACTIONS of that displacement, down to where it was
+        places = [(shifted(self.last_mask, round(f * dy / self.resolution), round(f * dx / self.resolution)),
+                   (cen[0] + f * dy / self.resolution, cen[1] + f * dx / self.resolution))
+                  for f in (PATH_FRACTIONS if dx or dy else (1.0,))]
         scored = self._score(hm, labels, lab, others, places, gate)
         if not scored or scored[0][0] < FOUND_SCORE:  # the last mask was another object, lifted: the target stayed
             scored = self._score(hm, labels, lab, np.zeros_like(others), places, gate)
@@ -376,7 +379,8 @@ class TargetTracker:
             area = shape = UNKNOWN_TERM
         else:
             area = min(seen.area, ref.area) / max(seen.area, ref.area)
-            shape = math.exp(-abs(seen.hu1 - ref.hu1) / HU1_SCALE - abs(seen.ratio - ref.ratio) / RATIO_SCALE)
+            shape = math.exp(-abs(seen.hu1 - ref.hu1) / HU1_SCALE - abs(seen.ratio - ref.ratio) / RATIO_SCALE
+                             - max(abs(seen.extent - ref.extent) - EXTENT_SLACK, 0.0) / EXTENT_SCALE)
         union = int((seg | predicted).sum())
         overlap = int((seg & predicted).sum()) / union if union else 0.0
         dist_m = math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) * self.resolution
