@@ -344,3 +344,33 @@ def test_a_target_pushed_into_the_place_a_look_alike_left_is_tracked_whole():
     truth = np.zeros((224, 224), bool)
     truth[100:120, 112:132] = True
     assert _iou(track.mask, truth) >= 0.9, track.why
+
+
+def test_a_target_a_push_carried_less_far_than_predicted_is_told_from_the_look_alike_it_pushed_on():
+    """A push predicted to carry the target 30 cells carries it 10, into a look-alike that it shoves 20 cells on:
+    the target lies a third of the way along the predicted displacement and is found there, sure, not the
+    look-alike nearer the predicted end."""
+    first = _blocks((100, 60, RED), (100, 84, RED))
+    target = np.zeros((224, 224), bool)
+    target[100:120, 60:80] = True
+    tracker = TargetTracker()
+    tracker.start(first, target)
+    track = tracker.update(_blocks((100, 70, RED), (100, 104, RED)), (0.06, 0.0))
+    truth = np.zeros((224, 224), bool)
+    truth[100:120, 70:90] = True
+    assert _iou(track.mask, truth) >= 0.9 and not track.unsure, track.why
+
+
+def test_extent_tells_a_disc_from_a_square_at_any_angle():
+    import cv2
+
+    from pg_policy.perception.target_appearance import extent
+
+    disc = np.zeros((224, 224), np.uint8)
+    cv2.circle(disc, (100, 100), 11, 1, -1)
+    assert 0.72 <= extent(disc.astype(bool)) <= 0.8
+    for angle in (0.0, 10.0, 22.5, 45.0):
+        square = np.zeros((224, 224), np.uint8)
+        box = cv2.boxPoints(((100.0, 100.0), (23.0, 23.0), angle))
+        cv2.fillPoly(square, [np.round(box).astype(np.int32)], 1)
+        assert extent(square.astype(bool)) >= 0.88, angle

@@ -28,8 +28,10 @@ another object, which a grasp lifted: the target stayed where it was). Each term
   LIGHTNESS_WEIGHT: shading and a tilted face change lightness and chroma together and leave the hue, which CIE94
   weighs most for saturated colours;
 - form: the mean of the height term exp(-dh / HEIGHT_SCALE_M) (dh: the mean absolute difference of the median and
-  the top height), the area ratio min/max, and the shape term exp(-|d hu1| / HU1_SCALE - |d ratio| / RATIO_SCALE)
-  (first Hu moment and minor/major axis ratio: invariant to rotation and translation); when the record is partly
+  the top height), the area ratio min/max, and the shape term exp(-|d hu1| / HU1_SCALE - |d ratio| / RATIO_SCALE
+  - max(|d extent| - EXTENT_SLACK, 0) / EXTENT_SCALE) (first Hu moment, minor/major axis ratio and extent, the area
+  over the smallest enclosing rectangle's: invariant to rotation and translation; a disc and a square alike in the
+  first two differ in the third); when the record is partly
   covered (more of the target may come into view), a larger segment's area and shape terms are UNKNOWN_TERM;
 - place: the larger of the overlap, IoU of the segment with the last mask moved by `shift_xy` (the displacement a
   push predicts), and the nearness exp(-d / DISTANCE_SCALE_M), d the distance between the segment's centroid and
@@ -40,9 +42,9 @@ displacement from the predicted centroid is not the target (a push carries an ob
 grasp moves it a few centimetres). A segment more than MERGE_RATIO times the reference's area (and, where the
 record is partly covered, more than UNCOVERED_MAX_M2: a target uncovered whole) that overlaps
 the predicted mask (the target merged with a touching neighbour of its colour) is cut to the cells within
-CROP_CELLS of the predicted mask, and the track is unsure. A predicted displacement may be wrong (the push missed
-the target), so every segment is also scored against the place the target was last seen, unmoved, and keeps the
-better of the two.
+CROP_CELLS of the predicted mask, and the track is unsure. A predicted displacement may be too long (the push met
+other objects, missed the target or turned it), so every segment is scored against the places at PATH_FRACTIONS of
+it, from the full displacement to where the target was last seen, unmoved, and keeps the best.
 
 The score is the weighted mean (W_COLOUR, W_FORM, W_PLACE); the best segment is the target when its score reaches
 FOUND_SCORE. When none does and unsure tracks have led away from where a sure track last saw the target (onto a
