@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import textwrap
 from dataclasses import dataclass
 from typing import Any
 
@@ -91,7 +92,7 @@ def draw(frames: list[Frame], title: str, out: str, resolution: float, push_leng
         ax.set_title(f"step {k}: {prim}, IoU {'-' if score is None else f'{score:.2f}'}", fontsize=9)
         ax.set_xticks([])
         ax.set_yticks([])
-    fig.suptitle(title, fontsize=10)
+    fig.suptitle(textwrap.fill(title, width=int(40 * len(frames))), fontsize=10)  # about 40 characters a panel
     fig.tight_layout()
     fig.savefig(out, dpi=80)
     plt.close(fig)
