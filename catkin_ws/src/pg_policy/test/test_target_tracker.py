@@ -331,18 +331,24 @@ def test_a_block_mostly_covered_in_its_first_view_grows_to_its_whole_top_when_un
     assert _iou(track.mask, truth) >= 0.9, track.why
 
 
+def _pushed_beside_a_look_alike(before: tuple[int, int], after: tuple[int, int], shift_x: float) -> tuple[Any, Any]:
+    """Two red 20-cell blocks in row 100, the target first: their first columns `before`, then `after` a push
+    along +x predicted to carry the target `shift_x` m. The track of the second view and the target's true mask."""
+    tracker = TargetTracker()
+    target = np.zeros((224, 224), bool)
+    target[100:120, before[0] : before[0] + 20] = True
+    tracker.start(_blocks((100, before[0], RED), (100, before[1], RED)), target)
+    track = tracker.update(_blocks((100, after[0], RED), (100, after[1], RED)), (shift_x, 0.0))
+    truth = np.zeros((224, 224), bool)
+    truth[100:120, after[0] : after[0] + 20] = True
+    return track, truth
+
+
 def test_a_target_pushed_into_the_place_a_look_alike_left_is_tracked_whole():
     """The target pushed 12 cells into the place of a look-alike (one colour, one height) that the same push carried
     on: the cells where the look-alike lay look unchanged, but the look-alike's segment moved away, so they are the
     target's, not an unmoved neighbour's (a disc pushed into a cube's place in packed scenes)."""
-    first = _blocks((100, 100, RED), (100, 124, RED))
-    target = np.zeros((224, 224), bool)
-    target[100:120, 100:120] = True
-    tracker = TargetTracker()
-    tracker.start(first, target)
-    track = tracker.update(_blocks((100, 112, RED), (100, 150, RED)), (0.048, 0.0))
-    truth = np.zeros((224, 224), bool)
-    truth[100:120, 112:132] = True
+    track, truth = _pushed_beside_a_look_alike((100, 124), (112, 150), 0.048)
     assert _iou(track.mask, truth) >= 0.9, track.why
 
 
@@ -350,14 +356,7 @@ def test_a_target_a_push_carried_less_far_than_predicted_is_told_from_the_look_a
     """A push predicted to carry the target 30 cells carries it 10, into a look-alike that it shoves 20 cells on:
     the target lies a third of the way along the predicted displacement and is found there, sure, not the
     look-alike nearer the predicted end."""
-    first = _blocks((100, 60, RED), (100, 84, RED))
-    target = np.zeros((224, 224), bool)
-    target[100:120, 60:80] = True
-    tracker = TargetTracker()
-    tracker.start(first, target)
-    track = tracker.update(_blocks((100, 70, RED), (100, 104, RED)), (0.06, 0.0))
-    truth = np.zeros((224, 224), bool)
-    truth[100:120, 70:90] = True
+    track, truth = _pushed_beside_a_look_alike((60, 84), (70, 104), 0.06)
     assert _iou(track.mask, truth) >= 0.9 and not track.unsure, track.why
 
 
