@@ -373,3 +373,32 @@ def test_extent_tells_a_disc_from_a_square_at_any_angle():
         box = cv2.boxPoints(((100.0, 100.0), (23.0, 23.0), angle))
         cv2.fillPoly(square, [np.round(box).astype(np.int32)], 1)
         assert extent(square.astype(bool)) >= 0.88, angle
+
+
+def test_a_point_target_first_seen_merged_with_a_look_alike_is_the_clicked_part_once_the_look_alike_moves():
+    """Two red blocks side by side, one segment (no gap): the first mask holds both; the click was at (110, 110).
+    A push carries the right one 10 cells on, to where two thirds of the displacement predicted from the merged mask
+    lead: the block under the click did not move and is the target (without the clicked cell, the look-alike is),
+    and its form becomes the reference."""
+    first = _blocks((100, 100, RED), (100, 120, RED))
+    merged = np.asarray(first.height) > 0
+    after = _blocks((100, 100, RED), (100, 130, RED))
+    truth = np.zeros((224, 224), bool)
+    truth[100:120, 100:120] = True
+    tracker = TargetTracker()
+    tracker.start(first, merged)
+    assert _iou(tracker.update(after, (0.06, 0.0)).mask, truth) < 0.5
+    tracker = TargetTracker()
+    tracker.start(first, merged, (110, 110))
+    track = tracker.update(after, (0.06, 0.0))
+    assert np.array_equal(track.mask, truth) and "clicked part" in track.why, track.why
+    assert tracker.reference is not None and tracker.reference.area == 400
+    track = tracker.update(_blocks((100, 160, RED), (20, 20, RED)), (0.12, 0.0))  # now the target is pushed
+    assert track.mask[105:115, 165:175].all() and tracker.anchor is None, track.why
+
+
+def test_the_anchor_is_kept_only_inside_the_first_mask():
+    first = _blocks((100, 100, RED))
+    tracker = TargetTracker()
+    tracker.start(first, np.asarray(first.height) > 0, (10, 10))
+    assert tracker.anchor is None

@@ -60,6 +60,12 @@ SURE_SCORE or the runner-up comes within MARGIN of it. Objects of one colour are
 The appearance stays that of the first view; the place follows every found track. A target not found leaves the
 place where it was last seen.
 
+A target named by a point keeps that point's cell (`start`'s `anchor`) while it has not been seen to move. A first
+mask can hold a look-alike beside the target (one colour, one height, no gap between them: one segment); when an
+action moves the look-alike away, the segment at the anchor, within the last mask, mostly unchanged and now smaller
+than it, is the target ("in place: the clicked part"), and its form becomes the reference. A track found by the
+moved path or re-found drops the anchor.
+
 Frames and units: masks are (H, W) bool over the heightmap cells (pg_core.heightmap: rows along y, columns along x);
 `shift_xy` is (dx, dy) metres in `world`; heights and distances in metres. Deterministic: the same heightmaps give
 the same tracks. Raised: ValueError for a mask whose shape differs from the heightmap's or that holds no cell;
@@ -148,11 +154,14 @@ class TargetTracker:
         self.unsure = False  # whether the latest track that found the target was unsure
         self.last_labels: np.ndarray | None = None  # segment_objects(last_hm), None until needed
         self._segmented: tuple[Heightmap, np.ndarray] | None = None  # the heightmap `update` segments, its labels
+        self.anchor: tuple[int, int] | None = None  # the cell a point named, while the target has not moved
 
-    def start(self, hm: Heightmap, mask: np.ndarray) -> Track:
+    def start(self, hm: Heightmap, mask: np.ndarray, anchor: tuple[int, int] | None = None) -> Track:
         """Record the target `mask` ((H, W) bool, non-empty) as seen in `hm`; returns it as a sure Track.
-        Raises ValueError for a mask of another shape than the heightmap or without a cell."""
+        anchor: the (row, col) cell a point named (kept only when it lies in `mask`; module docstring), None for
+        none. Raises ValueError for a mask of another shape than the heightmap or without a cell."""
         mask = _check_mask(hm, mask)
+        self.anchor = anchor if anchor is not None and bool(mask[anchor]) else None
         lab = lab_image(hm.color)
         self.reference = replace(describe(hm, mask, lab), partial=partly_covered(hm, mask))
         self._found(hm, mask, lab)
@@ -194,6 +203,9 @@ class TargetTracker:
         covered = self.last_mask & arrived & recoloured  # another object on it (the target tilting keeps its colour)
         if not (dx or dy) and (stay | covered).sum() >= STAY_FRACTION * self.last_mask.sum():
             return self._covered(hm, lab, stay, covered)
+        clicked = self._clicked_part(hm, labels, lab, stay)
+        if clicked is not None:
+            return clicked
         others = still & ~self.last_mask & self._stayed(still)  # cells of other objects that did not move
         cen = describe(hm, self.last_mask, lab).centroid
         gate = (GATE_M + math.hypot(dx, dy)) / self.resolution  # cells
@@ -220,6 +232,7 @@ class TargetTracker:
         if best < FOUND_SCORE:
             return self._refind(hm, labels, lab, others, f"best segment scores {best:.2f} < {FOUND_SCORE} ({detail})")
         self._found(hm, mask, lab)
+        self.anchor = None  # found where it moved to: the named cell no longer marks it
         runner = scored[1][0] if len(scored) > 1 else 0.0
         if merged:
             return Track(mask, float(best), True,
@@ -317,6 +330,25 @@ class TargetTracker:
         self._found(hm, mask, lab)
         return Track(mask.copy(), 1.0, self.unsure, f"in place: {share:.0f} % of its cells unchanged{grew}{left_out}")
 
+    def _clicked_part(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, stay: np.ndarray) -> Track | None:
+        """The segment at the anchor, when the anchor's cell is unchanged (in `stay`, the last mask's unchanged
+        cells) and the segment lies within the last mask (STAY_FRACTION of its cells), is unchanged (UNMOVED_FRACTION
+        of its cells in `stay`) and is smaller than STAY_FRACTION of it: the named object, from which a look-alike
+        that shared its segment moved away (module docstring); None otherwise. Its form becomes the reference."""
+        assert self.reference is not None and self.last_mask is not None
+        if self.anchor is None or not labels[self.anchor] or not stay[self.anchor]:
+            return None
+        seg = labels == labels[self.anchor]
+        size = int(seg.sum())
+        if ((seg & self.last_mask).sum() < STAY_FRACTION * size or (seg & stay).sum() < UNMOVED_FRACTION * size
+                or size >= STAY_FRACTION * self.last_mask.sum()):
+            return None
+        self.reference = replace(describe(hm, seg, lab), lab=self.reference.lab, partial=partly_covered(hm, seg))
+        share = 100 * size / max(int(self.last_mask.sum()), 1)
+        self._found(hm, seg, lab)
+        return Track(seg.copy(), 1.0, self.unsure, f"in place: the clicked part ({share:.0f} % of the last mask), "
+                     "a look-alike beside it moved away")
+
     def _covered(self, hm: Heightmap, lab: np.ndarray, stay: np.ndarray, covered: np.ndarray) -> Track:
         """The target no push was predicted to move whose cells are unchanged (`stay`) or lie under something that
         moved onto it (`covered`): its visible part `stay`, as sure as the track before; with fewer than
@@ -368,6 +400,7 @@ class TargetTracker:
                                                         scored[0][0] - scored[1][0] >= REFIND_MARGIN):
             score, colour, form, mask = scored[0]
             self._found(hm, mask, lab)
+            self.anchor = None
             return Track(mask, float(score), True, f"re-found by appearance {score:.2f} (colour {colour:.2f} form "
                          f"{form:.2f}; not found near its place: {why})")
         return Track(np.zeros_like(self.last_mask), 0.0, True, f"not found: {why}")

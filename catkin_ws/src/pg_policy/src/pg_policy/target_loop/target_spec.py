@@ -150,7 +150,8 @@ class TargetFollower:
         if isinstance(spec, ColourTarget):
             return target_mask(hm.color, hm.valid, spec.name)
         if self.track is None:
-            self.track = self.tracker.start(hm, first_mask(hm, spec, self.segmenter))
+            anchor = point_cell(hm, spec) if isinstance(spec, PointTarget) else None
+            self.track = self.tracker.start(hm, first_mask(hm, spec, self.segmenter), anchor)
         else:
             self.track = self.tracker.update(hm, shift_xy if shift_xy is not None else self.shift)
         self.shift = None
