@@ -10,7 +10,8 @@ A request names its target in one of three ways:
   out), and, with a learned segmenter (`segmenter` "shipped" or a model file; the default "none" has none), joined
   with the segments it takes for parts of the same object
   (pg_policy.models.click_segmentation.ClickSegmentation.join_clicked); on later
-  ones pg_policy.perception.target_tracker.TargetTracker keeps it on the same object;
+  ones pg_policy.perception.target_tracker.TargetTracker keeps it on the same object, the point's cell its anchor
+  (the part of the first mask that stays when a look-alike beside it moves away);
 - `MaskTarget(mask)`: the object a (H, W) bool mask over the heightmap grid mostly covers; on the first
   observation the mask is refined to the object segment holding most of its cells, then tracked as a point is.
 
