@@ -402,3 +402,5 @@ def test_the_anchor_is_kept_only_inside_the_first_mask():
     tracker = TargetTracker()
     tracker.start(first, np.asarray(first.height) > 0, (10, 10))
     assert tracker.anchor is None
+    with pytest.raises(ValueError, match="anchor"):
+        tracker.start(first, np.asarray(first.height) > 0, (224, 10))

@@ -159,8 +159,11 @@ class TargetTracker:
     def start(self, hm: Heightmap, mask: np.ndarray, anchor: tuple[int, int] | None = None) -> Track:
         """Record the target `mask` ((H, W) bool, non-empty) as seen in `hm`; returns it as a sure Track.
         anchor: the (row, col) cell a point named (kept only when it lies in `mask`; module docstring), None for
-        none. Raises ValueError for a mask of another shape than the heightmap or without a cell."""
+        none. Raises ValueError for a mask of another shape than the heightmap or without a cell, or an anchor off
+        the grid."""
         mask = _check_mask(hm, mask)
+        if anchor is not None and not (0 <= anchor[0] < mask.shape[0] and 0 <= anchor[1] < mask.shape[1]):
+            raise ValueError(f"anchor {anchor} lies off the {mask.shape[0]} x {mask.shape[1]} grid")
         self.anchor = anchor if anchor is not None and bool(mask[anchor]) else None
         lab = lab_image(hm.color)
         self.reference = replace(describe(hm, mask, lab), partial=partly_covered(hm, mask))
