@@ -21,7 +21,10 @@ Method (OpenCV and scipy.ndimage):
 4. object cells the table basin reaches first (rims, pieces too thin for a seed) join the nearest label when they
    touch one, else form a label of their own;
 5. cells a single label encloses (a bowl's or cup's floor, lower than SEGMENT_HEIGHT_M or unseen) join it; labels
-   under MIN_OBJECT_CELLS cells are dropped to 0;
+   under MIN_OBJECT_CELLS cells are dropped to 0; a label holding a connected piece of another chroma (COLOUR_EDGE
+   apart, at least MIN_OBJECT_CELLS cells, meeting the rest at a colour edge) is split there
+   (pg_policy.perception.colour_pieces: a rod or a small part too thin for a seed of its own, flooded from the
+   neighbour it lies against);
 6. pieces of one long object join (pg_policy.perception.long_pieces): a label at least as elongated as
    JOIN_ELONGATION (the minor /
    major spread of its cells) takes in a label of its colour (median weighted Lab within COLOUR_EDGE) and height
@@ -69,6 +72,7 @@ import numpy as np
 from scipy import ndimage
 
 from pg_core.heightmap import Heightmap
+from pg_policy.perception.colour_pieces import split_colours
 from pg_policy.perception.long_pieces import join_pieces
 
 DEPTH_EDGE_M = 0.006  # height bend (m) within a 3 x 3 neighbourhood that makes a depth edge (a 6 mm step)
@@ -145,15 +149,20 @@ def _bend(height: np.ndarray) -> np.ndarray:
     return out
 
 
+def _colour_strength(lab: np.ndarray) -> np.ndarray:
+    """(H, W) float32: the weighted Lab span over each cell's 3 x 3 neighbourhood / COLOUR_EDGE (1.0: a colour
+    edge) of an (H, W, 3) float32 Lab image."""
+    weights = np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
+    spans = np.stack([_span(np.ascontiguousarray(lab[..., i])) for i in range(3)], axis=-1) * weights
+    return (np.sqrt((spans**2).sum(axis=-1)) / COLOUR_EDGE).astype(np.float32)
+
+
 def edge_strength(hm: Heightmap) -> np.ndarray:
     """(H, W) float32 edge strength, 1.0 at the edge thresholds: the larger of the height bend / DEPTH_EDGE_M and
     the weighted Lab span / COLOUR_EDGE over each cell's 3 x 3 neighbourhood; invalid cells are edges (2.0)."""
     height, color, valid = _check(hm)
     depth = _bend(np.where(valid, height, 0.0).astype(np.float32)) / DEPTH_EDGE_M
-    lab = lab_image(color)
-    weights = np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
-    spans = np.stack([_span(np.ascontiguousarray(lab[..., i])) for i in range(3)], axis=-1) * weights
-    colour = np.sqrt((spans**2).sum(axis=-1)) / COLOUR_EDGE
+    colour = _colour_strength(lab_image(color))
     strength = np.maximum(depth, colour)
     strength[~valid] = np.maximum(strength[~valid], 2.0)
     return strength.astype(np.float32)
@@ -201,7 +210,9 @@ def segment_objects(hm: Heightmap) -> np.ndarray:
     flooded = ndimage.watershed_ift(levels, markers, structure=np.ones((3, 3), bool)).astype(np.int32)
     labels = np.where(objects & (flooded <= n), flooded, 0)
     labels = _renumber(_fill_holes(_adopt_orphans(labels, objects & (labels == 0), n), objects))
-    weighted = lab_image(np.asarray(hm.color)) * np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
+    lab = lab_image(np.asarray(hm.color))
+    labels = _renumber(split_colours(labels, lab[..., 1:], _colour_strength(lab), COLOUR_EDGE, MIN_OBJECT_CELLS))
+    weighted = lab * np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
     return _renumber(join_pieces(labels, np.asarray(hm.height, np.float32), np.asarray(hm.valid, bool), weighted,
                                  float(hm.resolution), COLOUR_EDGE))
 
