@@ -62,8 +62,8 @@ place where it was last seen.
 
 A target named by a point keeps that point's cell (`start`'s `anchor`) while it has not been seen to move. A first
 mask can hold a look-alike beside the target (one colour, one height, no gap between them: one segment); when an
-action moves the look-alike away, the segment at the anchor, within the last mask, mostly unchanged and now smaller
-than it, is the target ("in place: the clicked part"), and its form becomes the reference. A track found by the
+action moves the look-alike away, the segment at the anchor, mostly within the last mask and unchanged, and now
+smaller than it, is the target ("in place: the clicked part"), and its form becomes the reference. A track found by the
 moved path or re-found drops the anchor.
 
 Frames and units: masks are (H, W) bool over the heightmap cells (pg_core.heightmap: rows along y, columns along x);
@@ -335,15 +335,16 @@ class TargetTracker:
 
     def _clicked_part(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, stay: np.ndarray) -> Track | None:
         """The segment at the anchor, when the anchor's cell is unchanged (in `stay`, the last mask's unchanged
-        cells) and the segment lies within the last mask (STAY_FRACTION of its cells), is unchanged (UNMOVED_FRACTION
-        of its cells in `stay`) and is smaller than STAY_FRACTION of it: the named object, from which a look-alike
-        that shared its segment moved away (module docstring); None otherwise. Its form becomes the reference."""
+        cells) and the segment lies mostly within the last mask and unchanged (UNMOVED_FRACTION of its cells in
+        each: a push that nudged the target leaves it so) and is smaller than STAY_FRACTION of it: the named
+        object, from which a look-alike that shared its segment moved away (module docstring); None otherwise. Its
+        form becomes the reference."""
         assert self.reference is not None and self.last_mask is not None
         if self.anchor is None or not labels[self.anchor] or not stay[self.anchor]:
             return None
         seg = labels == labels[self.anchor]
         size = int(seg.sum())
-        if ((seg & self.last_mask).sum() < STAY_FRACTION * size or (seg & stay).sum() < UNMOVED_FRACTION * size
+        if ((seg & self.last_mask).sum() < UNMOVED_FRACTION * size or (seg & stay).sum() < UNMOVED_FRACTION * size
                 or size >= STAY_FRACTION * self.last_mask.sum()):
             return None
         self.reference = replace(describe(hm, seg, lab), lab=self.reference.lab, partial=partly_covered(hm, seg))
