@@ -161,8 +161,12 @@ def edge_strength(hm: Heightmap) -> np.ndarray:
     """(H, W) float32 edge strength, 1.0 at the edge thresholds: the larger of the height bend / DEPTH_EDGE_M and
     the weighted Lab span / COLOUR_EDGE over each cell's 3 x 3 neighbourhood; invalid cells are edges (2.0)."""
     height, color, valid = _check(hm)
+    return _edge_strength(height, valid, _colour_strength(lab_image(color)))
+
+
+def _edge_strength(height: np.ndarray, valid: np.ndarray, colour: np.ndarray) -> np.ndarray:
+    """`edge_strength` from the checked arrays and the colour part (`_colour_strength`)."""
     depth = _bend(np.where(valid, height, 0.0).astype(np.float32)) / DEPTH_EDGE_M
-    colour = _colour_strength(lab_image(color))
     strength = np.maximum(depth, colour)
     strength[~valid] = np.maximum(strength[~valid], 2.0)
     return strength.astype(np.float32)
@@ -202,7 +206,10 @@ def segment_objects(hm: Heightmap) -> np.ndarray:
     labels = np.zeros(objects.shape, np.int32)
     if not objects.any():
         return labels
-    strength = edge_strength(hm)
+    height, color, valid = _check(hm)
+    lab = lab_image(color)
+    colour = _colour_strength(lab)
+    strength = _edge_strength(height, valid, colour)
     seeds, n = _seeds(objects, strength >= 1.0)
     markers = seeds.copy()
     markers[~objects] = n + 1  # the table (and unseen cells): one more basin that stops every object at its rim
@@ -210,8 +217,7 @@ def segment_objects(hm: Heightmap) -> np.ndarray:
     flooded = ndimage.watershed_ift(levels, markers, structure=np.ones((3, 3), bool)).astype(np.int32)
     labels = np.where(objects & (flooded <= n), flooded, 0)
     labels = _renumber(_fill_holes(_adopt_orphans(labels, objects & (labels == 0), n), objects))
-    lab = lab_image(np.asarray(hm.color))
-    labels = _renumber(split_colours(labels, lab[..., 1:], _colour_strength(lab), COLOUR_EDGE, MIN_OBJECT_CELLS))
+    labels = _renumber(split_colours(labels, lab[..., 1:], colour, COLOUR_EDGE, MIN_OBJECT_CELLS))
     weighted = lab * np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
     return _renumber(join_pieces(labels, np.asarray(hm.height, np.float32), np.asarray(hm.valid, bool), weighted,
                                  float(hm.resolution), COLOUR_EDGE))

@@ -4,19 +4,19 @@
 (pg_policy.perception.target_appearance: median CIE Lab colour, area, heights, shape, whether it is partly covered)
 and its place (the mask).
 `update(hm, shift_xy)` segments each new heightmap (pg_policy.perception.segmentation.segment_objects) and first
-compares it with the heightmap the target was last found in: a cell is unchanged when its height stays within
-STILL_DEPTH_M and its colour within STILL_COLOUR. When STAY_FRACTION of the last mask is unchanged, the target did
-not move (the action went elsewhere): it keeps its unchanged cells and takes in the cells of the segments they
-mostly fill that did not rise (something moved in there); where those hold more than IN_PLACE_RATIO times the
-reference's area (a look-alike lies against it, in one segment) it keeps its unchanged cells alone. It also takes in
-the cells of its segments that a removed cover laid bare (lower than before, or unseen before) and of its colour
-(within COLOUR_EDGE of the first view's), connected to it, up to UNCOVERED_MAX_M2 if that is more: a target mostly
-covered in its first view grows to what a push uncovers, and not into a merged neighbour of its colour that moved.
-Its form (area, heights, shape) then becomes the reference. When no push was predicted to move it and its cells are
-unchanged or lie under another object that moved onto it (they rose and changed colour), it is "partly covered": its
-visible part; with too little of it in view, "covered": an empty, unsure track, the last view kept to compare the
-next with, so that it is in place again once the cover leaves. An "in place" or "partly covered" track is as sure as
-the last track that found the target: it says the object did not move, not that it is the target.
+compares it with the heightmap the target was last found in (pg_policy.perception.view_change: a cell is unchanged when
+its height stays within 3 mm and its colour within 10 Lab units). When STAY_FRACTION of the last mask is unchanged, the
+target did not move (the action went elsewhere): it keeps its unchanged cells and takes in the cells of the segments
+they mostly fill that did not rise (something moved in there); where those hold more than IN_PLACE_RATIO times the
+reference's area (a look-alike lies against it, in one segment) it keeps its unchanged cells alone. It also takes in the
+cells of its segments that a removed cover laid bare (lower than before, or unseen before) and of its colour (within
+COLOUR_EDGE of the first view's), connected to it, up to UNCOVERED_MAX_M2 if that is more: a target mostly covered in
+its first view grows to what a push uncovers, and not into a merged neighbour of its colour that moved. Its form (area,
+heights, shape) then becomes the reference. When no push was predicted to move it and its cells are unchanged or lie
+under another object that moved onto it (they rose and changed colour), it is "partly covered": its visible part; with
+too little of it in view, "covered": an empty, unsure track, the last view kept to compare the next with, so that it is
+in place again once the cover leaves. An "in place" or "partly covered" track is as sure as the last track that found
+the target: it says the object did not move, not that it is the target.
 
 Otherwise the target moved, and every segment, less the unchanged cells that were not the target's (neighbours
 that did not move: unchanged cells of a segment of the last view that kept UNMOVED_FRACTION of its cells; where a
@@ -86,10 +86,10 @@ from pg_policy.perception.segmentation import (
     LIGHTNESS_WEIGHT,
     MIN_OBJECT_CELLS,
     lab_image,
-    object_cells,
     segment_objects,
 )
 from pg_policy.perception.target_appearance import Appearance, delta_e94, describe, partly_covered, shifted
+from pg_policy.perception.view_change import view_change
 
 COLOUR_SCALE = 12.0  # CIE94 difference (lightness weighted) at which the colour term falls to 1/e
 HEIGHT_SCALE_M = 0.01  # median height difference (m) at which the height term falls to 1/e
@@ -112,8 +112,6 @@ CROP_CELLS = 3  # a merged segment is cut to its cells within this many cells of
 REFIND_SCORE = 0.8  # a target not found near its place is re-found where colour and form alone score this much
 REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
 UNMOVED_FRACTION = 0.5  # a segment with this share of its cells unchanged since the target was last found: unmoved
-STILL_DEPTH_M = 0.003  # a cell is unchanged between two views when its height differs by less than this (m) ...
-STILL_COLOUR = 10.0  # ... and its Lab colour (lightness weighted) by less than this
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
 UNKNOWN_TERM = 0.5  # the area and shape terms of a segment larger than a partly covered target's record
 IN_PLACE_RATIO = 2.5  # a target in place grows to at most this many times the reference area (half covered: 2)
@@ -199,7 +197,8 @@ class TargetTracker:
         if labels.max() == 0:
             return Track(np.zeros_like(self.last_mask), 0.0, True, "no object in view")
         lab = lab_image(hm.color)
-        still, arrived, uncovered, recoloured = self._changes(hm, lab)
+        assert self.last_hm is not None and self.last_lab is not None
+        still, arrived, uncovered, recoloured = view_change(self.last_hm, self.last_lab, hm, lab)
         stay = self.last_mask & still
         if stay.sum() >= STAY_FRACTION * self.last_mask.sum():
             return self._in_place(hm, labels, lab, stay, arrived, uncovered)
@@ -276,23 +275,6 @@ class TargetTracker:
                 scored.append((score, -label, terms, seg, merged))
         scored = sorted(scored, key=lambda s: (s[0], s[1]), reverse=True)
         return [s for k, s in enumerate(scored) if k == 0 or s[1] != scored[0][1]]  # runner-up: another segment
-
-    def _changes(self, hm: Heightmap, lab: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(still, arrived, uncovered, recoloured), (H, W) bool each, against the heightmap the target was last found
-        in: `still` the object cells of `hm` whose height and colour stayed within STILL_DEPTH_M and STILL_COLOUR;
-        `arrived` the cells that rose by STILL_DEPTH_M or more (something moved in); `uncovered` the object cells
-        that fell by as much, or were unseen before (what lay on them moved away); `recoloured` the cells whose
-        colour changed by STILL_COLOUR or more."""
-        assert self.last_hm is not None and self.last_lab is not None
-        before = self.last_hm
-        both = np.asarray(before.valid, bool) & np.asarray(hm.valid, bool)
-        rise = np.asarray(hm.height, np.float32) - np.asarray(before.height, np.float32)
-        weights = np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
-        colour = np.linalg.norm((lab - self.last_lab) * weights, axis=-1)
-        recoloured = both & (colour >= STILL_COLOUR)
-        still = both & (np.abs(rise) < STILL_DEPTH_M) & ~recoloured & object_cells(hm)
-        bare = (both & (rise <= -STILL_DEPTH_M)) | (np.asarray(hm.valid, bool) & ~np.asarray(before.valid, bool))
-        return still, both & (rise >= STILL_DEPTH_M), bare & object_cells(hm), recoloured
 
     def _in_place(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, stay: np.ndarray,
                   arrived: np.ndarray, uncovered: np.ndarray) -> Track:
