@@ -82,8 +82,9 @@ def test_filters_shape_the_shown_map_and_memories_only_the_decision():
 
 def test_rules_are_found_by_module_and_named_once():
     assert list(builtin_rule_classes()) == ["grasp_filter", "failed_grasps", "futile_pushes", "low_parts",
-                                            "grasp_check", "grasp_search", "push_landing", "edge_guard"]
-    assert list(rule_classes())[:8] == list(builtin_rule_classes())  # installed plug-ins follow
+                                            "grasp_check", "grasp_search", "push_landing", "edge_recentre",
+                                            "edge_guard"]
+    assert list(rule_classes())[:9] == list(builtin_rule_classes())  # installed plug-ins follow
     assert make_pipeline(SHIPPED, GEO).specs() == SHIPPED
     with pytest.raises(ValueError, match="unknown rule 'fancy'"):
         make_pipeline(["fancy"], GEO)

@@ -13,9 +13,10 @@ Within a trial, `observe(last, before, after)` tells a rule what the previous ac
 contexts before and after it); `reset()` starts a new trial. A grasp rule with `vetoes_grasp` asks the policy to push
 instead when no grasp candidate passes (within the push budget).
 
-A rule's `kind` ("filter", "memory", "check", "preference": RULE_KINDS) says how the pipeline treats it: a filter's
-map is the one users see (it runs first on its map), the others shape only the map the decision reads; a
-preference's test counts only while some candidate passes it with the checks.
+A rule's `kind` ("filter", "memory", "check", "preference", "override": RULE_KINDS) says how the pipeline treats it:
+a filter's map is the one users see (it runs first on its map), the others shape only the map the decision reads; a
+preference's test counts only while some candidate passes it with the checks; an override raises candidates of its
+own above the map's best value, where the re-rank asks them first.
 
 Rules are created by name from a model's metadata or the policy options (pg_policy.decision.rules.registry): each
 module of this package that defines a Rule subclass with a `name` is one rule, and so is each entry point of the group
@@ -88,6 +89,7 @@ RULE_KINDS: dict[str, RuleKind] = {k.name: k for k in (
     RuleKind("memory", False, 0, "suppresses cells within a trial"),
     RuleKind("check", False, 0, "a yes/no test of candidates"),
     RuleKind("preference", False, 0, "a yes/no test of candidates, dropped when no candidate passes it", soft=True),
+    RuleKind("override", False, 0, "raises candidates of its own above the map's best value (they face the tests)"),
 )}
 
 
