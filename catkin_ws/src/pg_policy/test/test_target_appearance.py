@@ -1,13 +1,23 @@
-"""pg_policy.perception.target_appearance: the CIE94 colour difference and the partly covered test."""
+"""pg_policy.perception.target_appearance: the CIE94 colour difference, the partly covered test and the terms that
+score a segment against the target's record."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from pg_core.geometry import load
 from pg_core.heightmap import Heightmap
-from pg_policy.perception.target_appearance import delta_e94, describe, partly_covered
+from pg_policy.perception.target_appearance import (
+    UNKNOWN_TERM,
+    delta_e94,
+    describe,
+    match_terms,
+    partly_covered,
+    shifted,
+)
 
 GEO = load()
 
@@ -46,3 +56,25 @@ def test_describe_measures_area_heights_shape_and_place():
     assert seen.area == 400 and seen.height == pytest.approx(0.03) and seen.top == pytest.approx(0.03)
     assert seen.ratio == pytest.approx(1.0) and seen.centroid == pytest.approx((109.5, 109.5))
     assert not seen.partial
+
+
+def test_match_terms_score_the_same_block_one_and_fall_with_distance_size_and_colour():
+    hm = _block()
+    mask = np.zeros((224, 224), bool)
+    mask[100:120, 100:120] = True
+    ref = describe(hm, mask)
+    res = GEO.heightmap.resolution
+    assert match_terms(ref, ref, mask, mask, ref.centroid, res) == pytest.approx((1.0, 1.0, 1.0, 1.0))
+    moved = shifted(mask, 0, 25)  # the block 5 cm away: no overlap, nearness exp(-1)
+    there = Heightmap(np.roll(hm.color, 25, axis=1), np.roll(hm.height, 25, axis=1), hm.valid, res, hm.bounds)
+    colour, form, overlap, near = match_terms(ref, describe(there, moved), moved, mask, ref.centroid, res)
+    assert (colour, form, overlap) == pytest.approx((1.0, 1.0, 0.0)) and near == pytest.approx(np.exp(-1), abs=0.01)
+    half = mask.copy()
+    half[:, 110:] = False
+    assert match_terms(ref, describe(hm, half), half, mask, ref.centroid, res)[1] < 0.9  # half the area, a 2:1 form
+    other = _block()
+    other.color[100:120, 100:120] = (40, 60, 200)
+    assert match_terms(ref, describe(other, mask), mask, mask, ref.centroid, res)[0] < 0.1  # blue against red
+    partial = replace(describe(hm, half), partial=True)  # a record of a partly covered target: a larger segment's
+    form = match_terms(partial, ref, mask, mask, ref.centroid, res)[1]  # area and shape terms say nothing
+    assert form == pytest.approx((1.0 + 2 * UNKNOWN_TERM) / 3, abs=0.01)

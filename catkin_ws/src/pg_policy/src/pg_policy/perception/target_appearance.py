@@ -1,6 +1,7 @@
 """What a target looks like in one heightmap, for pg_policy.perception.target_tracker: its Appearance (colour,
 area, heights, shape, place, whether another object covers part of it), the CIE94 colour difference that compares
-two appearances, and masks moved by whole cells.
+two appearances, the terms that score a segment against the target's record (`match_terms`), and masks moved by
+whole cells.
 
 Frames and units: masks are (H, W) bool over the heightmap cells (pg_core.heightmap: rows along y, columns along x);
 heights in metres above the table, areas in cells, centroids (row, col) in cells; Lab colours as
@@ -20,6 +21,14 @@ from pg_policy.perception.segmentation import DEPTH_EDGE_M, LIGHTNESS_WEIGHT, la
 
 TOP_QUANTILE = 0.9  # the target's "top" height is this quantile of its cells' heights
 COVERED_BORDER = 0.25  # a target is partly covered when this fraction of its border stands higher than its top
+COLOUR_SCALE = 12.0  # CIE94 difference (lightness weighted) at which the colour term falls to 1/e
+HEIGHT_SCALE_M = 0.01  # median height difference (m) at which the height term falls to 1/e
+HU1_SCALE = 0.03  # first Hu moment difference (a square 0.167, a 2:1 rectangle 0.208) weighing 1/e
+RATIO_SCALE = 0.3  # minor/major axis ratio difference (a square 1, a 2:1 rectangle 0.5) weighing 1/e
+EXTENT_SLACK = 0.05  # extent differences up to this are the grid's (a square turned on it: 0.90-1.0) ...
+EXTENT_SCALE = 0.1  # ... and beyond it this much weighs 1/e (a disc 0.76 against a square 0.9-1: 0.15-0.35)
+DISTANCE_SCALE_M = 0.05  # centroid distance (m) from the predicted place at which the nearness term falls to 1/e
+UNKNOWN_TERM = 0.5  # the area and shape terms of a segment larger than a partly covered target's record
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,3 +103,26 @@ def shifted(mask: np.ndarray, rows: int, cols: int) -> np.ndarray:
     src = mask[max(-rows, 0) : h - max(rows, 0), max(-cols, 0) : w - max(cols, 0)]
     out[max(rows, 0) : h - max(-rows, 0), max(cols, 0) : w - max(-cols, 0)] = src
     return out
+
+
+def match_terms(ref: Appearance, seen: Appearance, seg: np.ndarray, predicted: np.ndarray,
+                expected: tuple[float, float], resolution: float) -> tuple[float, float, float, float]:
+    """(colour, form, overlap, nearness), each in [0, 1], of a segment against the target's record `ref`: `seen`
+    is the (H, W) bool segment `seg`'s Appearance, `predicted` the (H, W) bool mask where the target is expected,
+    `expected` its centroid (row, col) in cells, `resolution` m per cell. colour: exp(-delta_e94 / COLOUR_SCALE);
+    form: the mean of the height, area-ratio and shape terms (pg_policy.perception.target_tracker's module
+    docstring), the area and shape terms UNKNOWN_TERM for a segment larger than a partly covered record; overlap:
+    the IoU of `seg` with `predicted`; nearness: exp(-d / DISTANCE_SCALE_M), d the centroid distance in m."""
+    colour = math.exp(-delta_e94(ref.lab, seen.lab) / COLOUR_SCALE)
+    height = math.exp(-(abs(seen.height - ref.height) + abs(seen.top - ref.top)) / 2 / HEIGHT_SCALE_M)
+    if ref.partial and seen.area > ref.area:  # more of it may be in view now: its area and shape say nothing
+        area = shape = UNKNOWN_TERM
+    else:
+        area = min(seen.area, ref.area) / max(seen.area, ref.area)
+        shape = math.exp(-abs(seen.hu1 - ref.hu1) / HU1_SCALE - abs(seen.ratio - ref.ratio) / RATIO_SCALE
+                         - max(abs(seen.extent - ref.extent) - EXTENT_SLACK, 0.0) / EXTENT_SCALE)
+    union = int((seg | predicted).sum())
+    overlap = int((seg & predicted).sum()) / union if union else 0.0
+    dist_m = math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) * resolution
+    near = math.exp(-dist_m / DISTANCE_SCALE_M)
+    return colour, (height + area + shape) / 3.0, overlap, near

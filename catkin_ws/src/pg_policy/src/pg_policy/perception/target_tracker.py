@@ -22,7 +22,8 @@ Otherwise the target moved, and every segment, less the unchanged cells that wer
 that did not move: unchanged cells of a segment of the last view that kept UNMOVED_FRACTION of its cells; where a
 look-alike of the target's colour and height moved away, its old cells look unchanged under the target that moved
 in), is scored against the first view's record; when none is found so, every whole segment is (the last mask was
-another object, which a grasp lifted: the target stayed where it was). Each term lies in [0, 1]:
+another object, which a grasp lifted: the target stayed where it was). Each term lies in [0, 1]
+(pg_policy.perception.target_appearance.match_terms, where the scales are):
 
 - colour: exp(-dE / COLOUR_SCALE), dE the CIE94 colour difference (`delta_e94`) with lightness weighted by
   LIGHTNESS_WEIGHT: shading and a tilted face change lightness and chroma together and leave the hue, which CIE94
@@ -88,16 +89,9 @@ from pg_policy.perception.segmentation import (
     lab_image,
     segment_objects,
 )
-from pg_policy.perception.target_appearance import Appearance, delta_e94, describe, partly_covered, shifted
+from pg_policy.perception.target_appearance import Appearance, describe, match_terms, partly_covered, shifted
 from pg_policy.perception.view_change import view_change
 
-COLOUR_SCALE = 12.0  # CIE94 difference (lightness weighted) at which the colour term falls to 1/e
-HEIGHT_SCALE_M = 0.01  # median height difference (m) at which the height term falls to 1/e
-HU1_SCALE = 0.03  # first Hu moment difference (a square 0.167, a 2:1 rectangle 0.208) weighing 1/e
-RATIO_SCALE = 0.3  # minor/major axis ratio difference (a square 1, a 2:1 rectangle 0.5) weighing 1/e
-EXTENT_SLACK = 0.05  # extent differences up to this are the grid's (a square turned on it: 0.90-1.0) ...
-EXTENT_SCALE = 0.1  # ... and beyond it this much weighs 1/e (a disc 0.76 against a square 0.9-1: 0.15-0.35)
-DISTANCE_SCALE_M = 0.05  # centroid distance (m) from the predicted place at which the nearness term falls to 1/e
 W_COLOUR, W_FORM, W_PLACE = 0.3, 0.3, 0.4  # weights of the terms (sum 1)
 FOUND_SCORE = 0.45  # a best segment scoring below this is not the target: the target is hidden
 SURE_SCORE = 0.65  # a found target scoring below this is unsure
@@ -113,7 +107,6 @@ REFIND_SCORE = 0.8  # a target not found near its place is re-found where colour
 REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
 UNMOVED_FRACTION = 0.5  # a segment with this share of its cells unchanged since the target was last found: unmoved
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
-UNKNOWN_TERM = 0.5  # the area and shape terms of a segment larger than a partly covered target's record
 IN_PLACE_RATIO = 2.5  # a target in place grows to at most this many times the reference area (half covered: 2)
 UNCOVERED_MAX_M2 = 0.0025  # ... or, when a cover left, to this area (m^2; 5 x 5 cm) if that is more
 
@@ -268,7 +261,7 @@ class TargetTracker:
                 seen = describe(hm, seg, lab)
                 if math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) > gate:
                     continue
-                terms = self._terms(seen, seg, predicted, expected, ref)
+                terms = match_terms(ref, seen, seg, predicted, expected, self.resolution)
                 if terms[0] < COLOUR_FLOOR:
                     continue
                 score = W_COLOUR * terms[0] + W_FORM * terms[1] + W_PLACE * max(terms[2], terms[3])
@@ -379,7 +372,7 @@ class TargetTracker:
             seg = labels == label
             if (seg & others).sum() >= UNMOVED_FRACTION * seg.sum():
                 continue  # it did not move since the target was last found: not the target, which did
-            colour, form, _, _ = self._terms(describe(hm, seg, lab), seg, seg, (0.0, 0.0), ref)
+            colour, form, _, _ = match_terms(ref, describe(hm, seg, lab), seg, seg, (0.0, 0.0), self.resolution)
             scored.append(((colour + form) / 2.0, colour, form, seg))
         scored.sort(key=lambda s: s[0], reverse=True)
         if scored and scored[0][0] >= REFIND_SCORE and (len(scored) == 1 or
@@ -390,20 +383,3 @@ class TargetTracker:
             return Track(mask, float(score), True, f"re-found by appearance {score:.2f} (colour {colour:.2f} form "
                          f"{form:.2f}; not found near its place: {why})")
         return Track(np.zeros_like(self.last_mask), 0.0, True, f"not found: {why}")
-
-    def _terms(self, seen: Appearance, seg: np.ndarray, predicted: np.ndarray, expected: tuple[float, float],
-               ref: Appearance) -> tuple[float, float, float, float]:
-        """(colour, form, overlap, nearness) terms in [0, 1] of one segment (see the module docstring)."""
-        colour = math.exp(-delta_e94(ref.lab, seen.lab) / COLOUR_SCALE)
-        height = math.exp(-(abs(seen.height - ref.height) + abs(seen.top - ref.top)) / 2 / HEIGHT_SCALE_M)
-        if ref.partial and seen.area > ref.area:  # more of it may be in view now: its area and shape say nothing
-            area = shape = UNKNOWN_TERM
-        else:
-            area = min(seen.area, ref.area) / max(seen.area, ref.area)
-            shape = math.exp(-abs(seen.hu1 - ref.hu1) / HU1_SCALE - abs(seen.ratio - ref.ratio) / RATIO_SCALE
-                             - max(abs(seen.extent - ref.extent) - EXTENT_SLACK, 0.0) / EXTENT_SCALE)
-        union = int((seg | predicted).sum())
-        overlap = int((seg & predicted).sum()) / union if union else 0.0
-        dist_m = math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) * self.resolution
-        near = math.exp(-dist_m / DISTANCE_SCALE_M)
-        return colour, (height + area + shape) / 3.0, overlap, near
