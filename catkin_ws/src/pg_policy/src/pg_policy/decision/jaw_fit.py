@@ -147,7 +147,8 @@ class JawFit:
         ok &= line.any(axis=1)
         chord = np.where(line, s, -inf).max(axis=1) - np.where(line, s, inf).min(axis=1)
         ok &= ~(chord < (hi - lo) - p.chord_tol)
-        mid = np.where(ok, 0.5 * (lo + hi), 0.0)
+        mid = np.zeros(k)
+        mid[ok] = 0.5 * (lo[ok] + hi[ok])  # only where the band holds cells: elsewhere lo + hi is inf - inf
         c2 = centres + mid[:, None] * u
         clearance = np.full(k, np.nan)
         idx = np.flatnonzero(ok)
