@@ -72,8 +72,9 @@ class EdgeRecentre(Rule):
         return None if norm == 0.0 else n / norm
 
     def candidates(self, ctx: RuleContext) -> list[tuple[int, int, int]]:
-        """The recentring pushes (rotation, row, col) of this context, preferred first: in the push region, on a
-        finite Q_p cell's grid, fingers not landing on an object. [] when the rule has nothing to offer."""
+        """The recentring pushes (rotation, row, col) of this context, preferred first: starting in the push region
+        with the closed fingers landing on no object. [] when the rule has nothing to offer (`adjust` raises those
+        whose Q_p value is finite)."""
         if not ctx.visible or not ctx.target.any():
             return []
         hm = ctx.heightmap
