@@ -115,9 +115,37 @@ def test_the_kind_decides_where_a_rule_adjusts_and_apply_times_every_rule():
     assert (res.shown["grasp"] == 10.0).all() and res.q["grasp"].max() == 11.0
     assert list(pipe.timings) == ["m", "f", "c", "rerank"] and all(t >= 0.0 for t in pipe.timings.values())
     assert pipe.timings["c"] > 0.0  # the push test, asked during the re-rank of Q_p, is charged to its rule
-    assert [Shift("x", k, 0.0).reach() for k in ("filter", "memory", "check")] == [None, 0, 0]
+    assert [Shift("x", k, 0.0).reach() for k in ("filter", "memory", "check", "override")] == [None, 0, 0, 0]
     with pytest.raises(ValueError, match="unknown rule kind 'layer'"):
         RulePipeline([Shift("x", "layer", 0.0)])
+
+
+class Raise(Rule):
+    """An override raising one push cell above the map's best value (as edge_recentre does)."""
+
+    name = "raise"
+    primitive = "push"
+    kind = "override"
+
+    def __init__(self, cell: tuple[int, int, int]) -> None:
+        self.cell = cell
+
+    def adjust(self, q: np.ndarray, ctx: RuleContext) -> np.ndarray:
+        out = q.copy()
+        out[self.cell] = q.max() + 1.0
+        return out
+
+
+def test_an_override_comes_first_and_still_faces_the_checks():
+    hm, anywhere = _flat()
+    q = np.zeros((16, H, W))
+    best, raised = (0, 10, 10), (3, 40, 40)
+    q[best] = 1.0
+    res = RulePipeline([Raise(raised), Forbid(set())]).apply({"grasp": q, "push": q}, context(hm, anywhere))
+    assert np.unravel_index(np.argmax(res.q["push"]), q.shape) == raised and not res.vetoed["push"]
+    assert (res.shown["push"] == q).all()  # not a filter: the map users see is the net's
+    res = RulePipeline([Raise(raised), Forbid({raised})]).apply({"grasp": q, "push": q}, context(hm, anywhere))
+    assert np.unravel_index(np.argmax(res.q["push"]), q.shape) == best  # refused by a check: the net's best
 
 
 def test_models_before_rule_lists_map_their_switches_to_the_same_rules():
