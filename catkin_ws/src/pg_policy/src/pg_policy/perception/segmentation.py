@@ -197,8 +197,9 @@ def _renumber(labels: np.ndarray) -> np.ndarray:
     return remap[labels]
 
 
-def segment_objects(hm: Heightmap) -> np.ndarray:
+def segment_objects(hm: Heightmap, lab: np.ndarray | None = None) -> np.ndarray:
     """(H, W) int32 object labels of the heightmap: 0 on table and invalid cells, 1..N one per object found.
+    lab: hm's (H, W, 3) float32 Lab image (`lab_image`) when the caller has it already, else it is made here.
 
     Raises ValueError when the heightmap's arrays disagree in shape or dtype (see the module docstring for the
     method and its limits)."""
@@ -207,7 +208,7 @@ def segment_objects(hm: Heightmap) -> np.ndarray:
     if not objects.any():
         return labels
     height, color, valid = _check(hm)
-    lab = lab_image(color)
+    lab = lab_image(color) if lab is None else lab
     colour = _colour_strength(lab)
     strength = _edge_strength(height, valid, colour)
     seeds, n = _seeds(objects, strength >= 1.0)

@@ -185,11 +185,11 @@ class TargetTracker:
         """`update` past its checks."""
         assert self.reference is not None and self.last_mask is not None and self.sure_mask is not None
         dx, dy = shift_xy if shift_xy is not None else (0.0, 0.0)
-        labels = segment_objects(hm)
+        lab = lab_image(hm.color)
+        labels = segment_objects(hm, lab)
         self._segmented = (hm, labels)
         if labels.max() == 0:
             return Track(np.zeros_like(self.last_mask), 0.0, True, "no object in view")
-        lab = lab_image(hm.color)
         assert self.last_hm is not None and self.last_lab is not None
         still, arrived, uncovered, recoloured = view_change(self.last_hm, self.last_lab, hm, lab)
         stay = self.last_mask & still

@@ -106,8 +106,7 @@ class EdgeRecentre(Rule):
         found = [c for c in self.candidates(ctx) if np.isfinite(q[c])]
         if not found:
             return q
-        region = ctx.push_region[None] & np.isfinite(q)
-        best = float(q[np.broadcast_to(region, q.shape)].max())
+        best = float(q[ctx.push_region[None] & np.isfinite(q)].max())
         out = q.copy()
         for i, c in enumerate(found):
             out[c] = best + RAISE * (len(found) - i)
