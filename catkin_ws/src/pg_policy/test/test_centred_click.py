@@ -1,5 +1,6 @@
 """pg_policy.perception.segmentation.centred_on: a click names the object centred on it. Two blocks of one colour
-and height touching side by side are one segment; a click at the centre of one of them names that block alone,
+and height touching side by side are one segment; a click at the centre of one of them names that block alone
+(also where look-alikes touch it on two sides),
 while a click near the middle of a single object, off the middle of a long thin one, on an object whose centroid
 lies off it, or in the middle of a curved one keeps the segment whole."""
 
@@ -34,6 +35,35 @@ def test_a_click_at_one_of_two_touching_blocks_names_that_block(which):
     mask = centred_on(segment, int(rows.mean()), int(cols.mean()))
     assert _iou(mask, blocks[which]) >= 0.9 and (mask & blocks[1 - which]).sum() <= SIDE  # one column at most
     assert not np.array_equal(mask, segment)
+
+
+def _grid(*boxes: tuple[int, int, int, int]) -> list[np.ndarray]:
+    """Masks of axis-aligned boxes (row, col, rows, cols) on a 120 x 120 grid."""
+    out = []
+    for r, c, h, w in boxes:
+        m = np.zeros((120, 120), bool)
+        m[r : r + h, c : c + w] = True
+        out.append(m)
+    return out
+
+
+def test_a_click_at_a_block_between_two_look_alikes_names_that_block():
+    # a bar with a cube on one long side and another bar on the other, both towards its left end: three objects,
+    # one segment, and the two look-alikes do not touch each other (two pieces once the clicked bar is cut out)
+    bar, cube, other = _grid((50, 30, SIDE, 2 * SIDE), (28, 24, SIDE, SIDE), (72, 10, SIDE, 2 * SIDE))
+    segment = bar | cube | other
+    rows, cols = np.nonzero(bar)
+    mask = centred_on(segment, int(rows.mean()), int(cols.mean()))
+    assert _iou(mask, bar) >= 0.9 and (mask & cube).sum() <= SIDE and not (mask & other).any()  # a cube's row at most
+
+
+def test_a_small_piece_beside_a_look_alike_keeps_the_segment_whole():
+    # beside the look-alike, a piece a tenth of the clicked object's area (a handle or a spout of the object's
+    # own, not an object): the cut is not trusted
+    block, other, nub = _grid((50, 20, SIDE, SIDE), (50, 20 + SIDE, SIDE, SIDE), (44, 24, 6, 8))
+    segment = block | other | nub
+    rows, cols = np.nonzero(block)
+    assert np.array_equal(centred_on(segment, int(rows.mean()), int(cols.mean())), segment)
 
 
 def test_a_long_thin_segment_clicked_off_its_middle_is_kept_whole():

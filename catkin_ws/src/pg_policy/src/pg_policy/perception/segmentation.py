@@ -57,8 +57,10 @@ at least CUT_MIN_ROUNDNESS; two blocks side by side: 0.5, a rod or a sliver clic
 segment is cut to its part that is point-symmetric about the click (a cell is kept when its mirror image through the
 clicked cell is in the segment too; on the grid, at most a cell's width off). The cut is kept only when what it
 leaves is one connected piece of at least CUT_REST_RATIO times its area (a look-alike block beside the clicked one,
-not the two ends of a curved object clicked in its middle), pieces under MIN_OBJECT_CELLS (the clicked object's own
-rim, off by a cell) staying with it. Labels are 1..N, numbered in raster order of their first cell (deterministic
+not the two ends of a curved object clicked in its middle), or several pieces, the largest that large and each at
+least CUT_EXTRA_RATIO times its area (the clicked block touching two look-alikes, a bar and a cube, on two sides);
+pieces under MIN_OBJECT_CELLS or no thicker than a strip of RIM_STRIP_CELLS (the clicked object's own rim, off by a
+cell) stay with it. Labels are 1..N, numbered in raster order of their first cell (deterministic
 for a given heightmap).
 
 Raised: ValueError for a heightmap whose arrays disagree in shape or dtype, and (`segment_at`) for a cell outside
@@ -92,7 +94,9 @@ MIN_TABLE_CELLS = 100  # fewer table cells than this in view: the table's colour
 CENTRE_OFFSET_CELLS = 5  # `centred_on`: a click this far (1 cm) or nearer to its segment's centroid names it whole
 CUT_CENTROID_DEPTH_CELLS = 3.0  # `centred_on`: the segment's centroid lies this far (cells) inside it, or no cut
 CUT_MIN_ROUNDNESS = 0.4  # `centred_on`: only a segment this round (minor / major spread) or rounder is cut
-CUT_REST_RATIO = 0.5  # `centred_on`: the cut-away rest is one piece of at least this fraction of the kept part
+CUT_REST_RATIO = 0.5  # `centred_on`: the cut-away rest's largest piece is at least this fraction of the kept part
+RIM_STRIP_CELLS = 1.5  # `centred_on`: a cut-away piece no thicker (cells to its edge) is the kept part's rim
+CUT_EXTRA_RATIO = 0.25  # `centred_on`: with several cut-away pieces, each is at least this fraction of the kept part
 EDGE_LEVELS = 255  # edge strengths are quantised to 0..EDGE_LEVELS for the watershed (uint8)
 
 
@@ -340,8 +344,9 @@ def _low_piece(hm: Heightmap, segment: np.ndarray, row: int, col: int) -> np.nda
 
 def centred_on(segment: np.ndarray, row: int, col: int) -> np.ndarray:
     """(H, W) bool: the part of the (H, W) bool `segment` centred on its clicked cell (row, col) (module docstring),
-    or `segment` itself when the click is near its centroid, the centroid lies off it, or the cut leaves no single
-    object-sized piece. Raises ValueError when (row, col) is not a cell of `segment`."""
+    or `segment` itself when the click is near its centroid, the centroid lies off it, or the cut leaves no
+    look-alike-sized piece (or a small one beside others). Raises ValueError when (row, col) is not a cell of
+    `segment`."""
     segment = np.asarray(segment, bool)
     if not (0 <= row < segment.shape[0] and 0 <= col < segment.shape[1]) or not segment[row, col]:
         raise ValueError(f"cell (row {row}, col {col}) is not in the segment")
@@ -361,10 +366,17 @@ def centred_on(segment: np.ndarray, row: int, col: int) -> np.ndarray:
     symmetric[rr[inside], cc[inside]] = segment[mr[inside], mc[inside]]
     _, parts = cv2.connectedComponents(symmetric.astype(np.uint8), connectivity=8)
     part = parts == parts[row, col]
-    _, rest_parts = cv2.connectedComponents((segment & ~part).astype(np.uint8), connectivity=8)
+    rest = segment & ~part
+    n_rest, rest_parts = cv2.connectedComponents(rest.astype(np.uint8), connectivity=8)
     sizes = np.bincount(rest_parts.ravel())
     sizes[0] = 0  # the background
-    pieces = np.nonzero(sizes >= MIN_OBJECT_CELLS)[0]  # smaller ones are the clicked object's own rim cells
-    if part.sum() < MIN_OBJECT_CELLS or len(pieces) != 1 or sizes[pieces[0]] < CUT_REST_RATIO * part.sum():
+    depth = cv2.distanceTransform(np.pad(rest, 1).astype(np.uint8), cv2.DIST_L2, 3)[1:-1, 1:-1]
+    thick = np.asarray(ndimage.maximum(depth, rest_parts, np.arange(n_rest)))  # a piece's half-width (cells)
+    # smaller or thinner ones are the clicked object's own rim cells, off by a cell of the mirror image
+    pieces = np.nonzero((sizes >= MIN_OBJECT_CELLS) & (thick > RIM_STRIP_CELLS))[0]
+    kept = int(part.sum())
+    if kept < MIN_OBJECT_CELLS or len(pieces) == 0 or sizes[pieces].max() < CUT_REST_RATIO * kept:
         return segment
-    return segment & (rest_parts != pieces[0])
+    if len(pieces) > 1 and (sizes[pieces] < CUT_EXTRA_RATIO * kept).any():
+        return segment  # a small piece beside a large one: an object's own part (a handle), not a look-alike
+    return segment & ~np.isin(rest_parts, pieces)
