@@ -90,6 +90,7 @@ from pg_policy.perception.segmentation import (
     segment_objects,
 )
 from pg_policy.perception.target_appearance import Appearance, describe, match_terms, partly_covered, shifted
+from pg_policy.perception.template_cut import Template, look_alike_cut, placements
 from pg_policy.perception.view_change import view_change
 
 W_COLOUR, W_FORM, W_PLACE = 0.3, 0.3, 0.4  # weights of the terms (sum 1)
@@ -109,6 +110,9 @@ UNMOVED_FRACTION = 0.5  # a segment with this share of its cells unchanged since
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
 IN_PLACE_RATIO = 2.5  # a target in place grows to at most this many times the reference area (half covered: 2)
 UNCOVERED_MAX_M2 = 0.0025  # ... or, when a cover left, to this area (m^2; 5 x 5 cm) if that is more
+SHAPE_RATIO = 1.5  # a segment over this many times the reference area is cut to the target's shape where it fits
+SHAPE_FORM = 0.75  # ... tried when the best whole segment scores under SURE_SCORE or its form term under this
+SHAPE_HEIGHT_M = 0.004  # ... and the cut stands as high as the reference within this (m): the same face up
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,6 +150,7 @@ class TargetTracker:
         self.last_labels: np.ndarray | None = None  # segment_objects(last_hm), None until needed
         self._segmented: tuple[Heightmap, np.ndarray] | None = None  # the heightmap `update` segments, its labels
         self.anchor: tuple[int, int] | None = None  # the cell a point named, while the target has not moved
+        self.template: Template | None = None  # the reference's outline (pg_policy.perception.template_cut)
 
     def start(self, hm: Heightmap, mask: np.ndarray, anchor: tuple[int, int] | None = None) -> Track:
         """Record the target `mask` ((H, W) bool, non-empty) as seen in `hm`; returns it as a sure Track.
@@ -158,6 +163,7 @@ class TargetTracker:
         self.anchor = anchor if anchor is not None and bool(mask[anchor]) else None
         lab = lab_image(hm.color)
         self.reference = replace(describe(hm, mask, lab), partial=partly_covered(hm, mask))
+        self.template = Template.of(mask)
         self._found(hm, mask, lab)
         self.sure_mask, self.unsure = mask.copy(), False
         self.resolution = float(hm.resolution)
@@ -229,9 +235,12 @@ class TargetTracker:
         self._found(hm, mask, lab)
         self.anchor = None  # found where it moved to: the named cell no longer marks it
         runner = scored[1][0] if len(scored) > 1 else 0.0
-        if merged:
+        if merged == "merged":
             return Track(mask, float(best), True,
                          f"{where}merged with a touching object: cut to the predicted place ({detail})")
+        if merged == "shaped":
+            detail += "; cut to its shape from a segment it shares"
+
         if best < SURE_SCORE:
             return Track(mask, float(best), True, f"{where}weak match {best:.2f} < {SURE_SCORE} ({detail})")
         if where:
@@ -250,24 +259,63 @@ class TargetTracker:
         merge_cells = MERGE_RATIO * ref.area
         if ref.partial:  # more of it may come into view: a segment of an uncovered target's size is not a merge
             merge_cells = max(merge_cells, UNCOVERED_MAX_M2 / self.resolution**2)
-        scored = []
+        scored, shapes = [], []
         for label in range(1, int(labels.max()) + 1):
             whole = (labels == label) & ~others
             if whole.sum() < MIN_OBJECT_CELLS:
                 continue
+            if whole.sum() > SHAPE_RATIO * ref.area:
+                shapes.append((label, whole))
             for predicted, expected in places:
                 merged = int(whole.sum()) > merge_cells and bool((whole & predicted).any())
                 seg = whole & (cv2.dilate(predicted.astype(np.uint8), grow) > 0) if merged else whole
-                seen = describe(hm, seg, lab)
-                if math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) > gate:
-                    continue
-                terms = match_terms(ref, seen, seg, predicted, expected, self.resolution)
-                if terms[0] < COLOUR_FLOOR:
-                    continue
-                score = W_COLOUR * terms[0] + W_FORM * terms[1] + W_PLACE * max(terms[2], terms[3])
-                scored.append((score, -label, terms, seg, merged))
+                score, terms = self._terms(hm, seg, lab, predicted, expected, gate)
+                if score is not None:
+                    scored.append((score, -label, terms, seg, "merged" if merged else ""))
+        best = max(scored, key=lambda s: s[0], default=None)
+        if best is None or best[0] < SURE_SCORE or best[2][1] < SHAPE_FORM:  # a look-alike may share its segment
+            scored += self._shaped(hm, lab, shapes, places, gate)
         scored = sorted(scored, key=lambda s: (s[0], s[1]), reverse=True)
         return [s for k, s in enumerate(scored) if k == 0 or s[1] != scored[0][1]]  # runner-up: another segment
+
+    def _shaped(self, hm: Heightmap, lab: np.ndarray, shapes: list[tuple[int, np.ndarray]],
+                places: list[tuple[np.ndarray, tuple[float, float]]], gate: float) -> list[tuple]:
+        """`_score`'s entries of the segments `shapes` ((label, cells), each over SHAPE_RATIO times the reference's
+        area) cut to the target's outline (pg_policy.perception.template_cut.look_alike_cut) at each place, where
+        the cut stands as high as the reference (`_as_high`)."""
+        if self.template is None or self.reference is None or self.reference.partial:
+            return []
+        out = []
+        for label, whole in shapes:
+            fits = placements(whole, self.template)
+            for predicted, expected in places if fits else []:
+                shaped = look_alike_cut(whole, self.template, expected, predicted, fits)
+                if shaped is None or not self._as_high(describe(hm, shaped, lab)):
+                    continue
+                score, terms = self._terms(hm, shaped, lab, predicted, expected, gate)
+                if score is not None:
+                    out.append((score, -label, terms, shaped, "shaped"))
+        return out
+
+    def _as_high(self, seen: Appearance) -> bool:
+        """Whether `seen` stands as high as the reference (median and top within SHAPE_HEIGHT_M): a cut to the
+        target's outline is the target only where it still lies on the same face."""
+        assert self.reference is not None
+        return (abs(seen.height - self.reference.height) <= SHAPE_HEIGHT_M
+                and abs(seen.top - self.reference.top) <= SHAPE_HEIGHT_M)
+
+    def _terms(self, hm: Heightmap, seg: np.ndarray, lab: np.ndarray, predicted: np.ndarray,
+               expected: tuple[float, float], gate: float) -> tuple[float | None, tuple | None]:
+        """(score, terms) of the candidate `seg` against the reference at one predicted place; (None, None) when its
+        centroid lies beyond `gate` cells of `expected` or its colour term under COLOUR_FLOOR."""
+        assert self.reference is not None
+        seen = describe(hm, seg, lab)
+        if math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) > gate:
+            return None, None
+        terms = match_terms(self.reference, seen, seg, predicted, expected, self.resolution)
+        if terms[0] < COLOUR_FLOOR:
+            return None, None
+        return W_COLOUR * terms[0] + W_FORM * terms[1] + W_PLACE * max(terms[2], terms[3]), terms
 
     def _in_place(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, stay: np.ndarray,
                   arrived: np.ndarray, uncovered: np.ndarray) -> Track:
@@ -301,6 +349,7 @@ class TargetTracker:
         if whole:
             seen = describe(hm, mask, lab)
             self.reference = replace(seen, lab=self.reference.lab, partial=partly_covered(hm, mask))
+            self.template = Template.of(mask)
         left_out = ", a touching object left out" if (segs & ~mask).sum() >= MIN_OBJECT_CELLS else ""
         taken = int((mask & bared & ~stay).sum())
         grew = f", {taken} cells uncovered" if taken >= MIN_OBJECT_CELLS else ""
@@ -323,6 +372,7 @@ class TargetTracker:
                 or size >= STAY_FRACTION * self.last_mask.sum()):
             return None
         self.reference = replace(describe(hm, seg, lab), lab=self.reference.lab, partial=partly_covered(hm, seg))
+        self.template = Template.of(seg)
         share = 100 * size / max(int(self.last_mask.sum()), 1)
         self._found(hm, seg, lab)
         return Track(seg.copy(), 1.0, self.unsure, f"in place: the clicked part ({share:.0f} % of the last mask), "
