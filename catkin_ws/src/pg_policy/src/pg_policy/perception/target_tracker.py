@@ -21,8 +21,9 @@ the target: it says the object did not move, not that it is the target.
 Otherwise the target moved, and every segment, less the unchanged cells that were not the target's (neighbours
 that did not move: unchanged cells of a segment of the last view that kept UNMOVED_FRACTION of its cells; where a
 look-alike of the target's colour and height moved away, its old cells look unchanged under the target that moved
-in), is scored against the first view's record; when none is found so, every whole segment is (the last mask was
-another object, which a grasp lifted: the target stayed where it was). Each term lies in [0, 1]
+in), is scored against the first view's record (pg_policy.perception.segment_scores, where the weights and the
+thresholds of the scoring are); when none is found so, every whole segment is (the last mask was another object,
+which a grasp lifted: the target stayed where it was). Each term lies in [0, 1]
 (pg_policy.perception.target_appearance.match_terms, where the scales are):
 
 - colour: exp(-dE / COLOUR_SCALE), dE the CIE94 colour difference (`delta_e94`) with lightness weighted by
@@ -43,7 +44,12 @@ displacement from the predicted centroid is not the target (a push carries an ob
 grasp moves it a few centimetres). A segment more than MERGE_RATIO times the reference's area (and, where the
 record is partly covered, more than UNCOVERED_MAX_M2: a target uncovered whole) that overlaps
 the predicted mask (the target merged with a touching neighbour of its colour) is cut to the cells within
-CROP_CELLS of the predicted mask, and the track is unsure. A predicted displacement may be too long (the push met
+CROP_CELLS of the predicted mask, and the track is unsure. A target pushed against a look-alike of its colour and
+height shares its segment with it: when no whole segment scores SURE_SCORE, or the best one's form term stays under
+SHAPE_FORM, every segment over SHAPE_RATIO times the reference's area is also scored cut to the target's outline
+(its cells in the view its form was recorded from, turned and shifted to where it fits the segment nearest the
+predicted place, standing as high as the record: pg_policy.perception.template_cut), "cut to its shape" in the
+track's note. A predicted displacement may be too long (the push met
 other objects, missed the target or turned it), so every segment is scored against the places at PATH_FRACTIONS of
 it, from the full displacement to where the target was last seen, unmoved, and keeps the best.
 
@@ -82,6 +88,7 @@ import cv2
 import numpy as np
 
 from pg_core.heightmap import Heightmap
+from pg_policy.perception.segment_scores import SURE_SCORE, UNCOVERED_MAX_M2, SegmentScorer
 from pg_policy.perception.segmentation import (
     COLOUR_EDGE,
     LIGHTNESS_WEIGHT,
@@ -90,29 +97,19 @@ from pg_policy.perception.segmentation import (
     segment_objects,
 )
 from pg_policy.perception.target_appearance import Appearance, describe, match_terms, partly_covered, shifted
-from pg_policy.perception.template_cut import Template, look_alike_cut, placements
+from pg_policy.perception.template_cut import Template
 from pg_policy.perception.view_change import view_change
 
-W_COLOUR, W_FORM, W_PLACE = 0.3, 0.3, 0.4  # weights of the terms (sum 1)
 FOUND_SCORE = 0.45  # a best segment scoring below this is not the target: the target is hidden
-SURE_SCORE = 0.65  # a found target scoring below this is unsure
 MARGIN = 0.08  # a runner-up scoring within this of the best makes the track unsure
-COLOUR_FLOOR = 0.4  # a segment whose colour term stays under this is not the target (measured on training
-# sequences: the target's own term stays above 0.54, shading and tilt included)
 GATE_M = 0.12  # a segment's centroid this far (m) beyond the predicted displacement from the predicted one: not it
-MERGE_RATIO = 3.5  # a segment over this many times the reference area that overlaps the prediction is merged (a
-# target partly covered in its first view grows as a push uncovers it: at 1.8 most "merges" were such targets)
 PATH_FRACTIONS = (1.0, 2 / 3, 1 / 3, 0.0)  # places along a predicted displacement a moved target is scored at
-CROP_CELLS = 3  # a merged segment is cut to its cells within this many cells of the predicted mask
 REFIND_SCORE = 0.8  # a target not found near its place is re-found where colour and form alone score this much
 REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
 UNMOVED_FRACTION = 0.5  # a segment with this share of its cells unchanged since the target was last found: unmoved
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
-IN_PLACE_RATIO = 2.5  # a target in place grows to at most this many times the reference area (half covered: 2)
-UNCOVERED_MAX_M2 = 0.0025  # ... or, when a cover left, to this area (m^2; 5 x 5 cm) if that is more
-SHAPE_RATIO = 1.5  # a segment over this many times the reference area is cut to the target's shape where it fits
-SHAPE_FORM = 0.75  # ... tried when the best whole segment scores under SURE_SCORE or its form term under this
-SHAPE_HEIGHT_M = 0.004  # ... and the cut stands as high as the reference within this (m): the same face up
+IN_PLACE_RATIO = 2.5  # a target in place grows to at most this many times the reference area (half covered: 2),
+# or, when a cover left, to UNCOVERED_MAX_M2 (segment_scores) if that is more
 
 
 @dataclass(frozen=True, eq=False)
@@ -215,14 +212,14 @@ class TargetTracker:
         places = [(shifted(self.last_mask, round(f * dy / self.resolution), round(f * dx / self.resolution)),
                    (cen[0] + f * dy / self.resolution, cen[1] + f * dx / self.resolution))
                   for f in (PATH_FRACTIONS if dx or dy else (1.0,))]
-        scored = self._score(hm, labels, lab, others, places, gate)
+        scored = self._scorer().score(hm, labels, lab, others, places, gate)
         if not scored or scored[0][0] < FOUND_SCORE:  # the last mask was another object, lifted: the target stayed
-            scored = self._score(hm, labels, lab, np.zeros_like(others), places, gate)
+            scored = self._scorer().score(hm, labels, lab, np.zeros_like(others), places, gate)
         where = ""
         if (not scored or scored[0][0] < FOUND_SCORE) and not np.array_equal(self.sure_mask, self.last_mask):
             # unsure tracks since led elsewhere (a look-alike): look where the target was last sure
             sure = [(self.sure_mask, describe(hm, self.sure_mask, lab).centroid)]
-            again = self._score(hm, labels, lab, np.zeros_like(others), sure, GATE_M / self.resolution)
+            again = self._scorer().score(hm, labels, lab, np.zeros_like(others), sure, GATE_M / self.resolution)
             if again and again[0][0] >= FOUND_SCORE:
                 scored, where = again, "where it was last sure: "
         if not scored:
@@ -249,73 +246,10 @@ class TargetTracker:
             return Track(mask, float(best), True, f"ambiguous: runner-up scores {runner:.2f} against {best:.2f}")
         return Track(mask, float(best), False, f"match {best:.2f} ({detail})")
 
-    def _score(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, others: np.ndarray,
-               places: list[tuple[np.ndarray, tuple[float, float]]], gate: float) -> list[tuple]:
-        """(score, -label, terms, mask, merged) of every segment less `others` within `gate` cells of a predicted
-        place, best first, each segment once (its better place)."""
+    def _scorer(self) -> SegmentScorer:
+        """The scorer of segments against the current reference (pg_policy.perception.segment_scores)."""
         assert self.reference is not None
-        ref = self.reference
-        grow = np.ones((2 * CROP_CELLS + 1,) * 2, np.uint8)
-        merge_cells = MERGE_RATIO * ref.area
-        if ref.partial:  # more of it may come into view: a segment of an uncovered target's size is not a merge
-            merge_cells = max(merge_cells, UNCOVERED_MAX_M2 / self.resolution**2)
-        scored, shapes = [], []
-        for label in range(1, int(labels.max()) + 1):
-            whole = (labels == label) & ~others
-            if whole.sum() < MIN_OBJECT_CELLS:
-                continue
-            if whole.sum() > SHAPE_RATIO * ref.area:
-                shapes.append((label, whole))
-            for predicted, expected in places:
-                merged = int(whole.sum()) > merge_cells and bool((whole & predicted).any())
-                seg = whole & (cv2.dilate(predicted.astype(np.uint8), grow) > 0) if merged else whole
-                score, terms = self._terms(hm, seg, lab, predicted, expected, gate)
-                if score is not None:
-                    scored.append((score, -label, terms, seg, "merged" if merged else ""))
-        best = max(scored, key=lambda s: s[0], default=None)
-        if best is None or best[0] < SURE_SCORE or best[2][1] < SHAPE_FORM:  # a look-alike may share its segment
-            scored += self._shaped(hm, lab, shapes, places, gate)
-        scored = sorted(scored, key=lambda s: (s[0], s[1]), reverse=True)
-        return [s for k, s in enumerate(scored) if k == 0 or s[1] != scored[0][1]]  # runner-up: another segment
-
-    def _shaped(self, hm: Heightmap, lab: np.ndarray, shapes: list[tuple[int, np.ndarray]],
-                places: list[tuple[np.ndarray, tuple[float, float]]], gate: float) -> list[tuple]:
-        """`_score`'s entries of the segments `shapes` ((label, cells), each over SHAPE_RATIO times the reference's
-        area) cut to the target's outline (pg_policy.perception.template_cut.look_alike_cut) at each place, where
-        the cut stands as high as the reference (`_as_high`)."""
-        if self.template is None or self.reference is None or self.reference.partial:
-            return []
-        out = []
-        for label, whole in shapes:
-            fits = placements(whole, self.template)
-            for predicted, expected in places if fits else []:
-                shaped = look_alike_cut(whole, self.template, expected, predicted, fits)
-                if shaped is None or not self._as_high(describe(hm, shaped, lab)):
-                    continue
-                score, terms = self._terms(hm, shaped, lab, predicted, expected, gate)
-                if score is not None:
-                    out.append((score, -label, terms, shaped, "shaped"))
-        return out
-
-    def _as_high(self, seen: Appearance) -> bool:
-        """Whether `seen` stands as high as the reference (median and top within SHAPE_HEIGHT_M): a cut to the
-        target's outline is the target only where it still lies on the same face."""
-        assert self.reference is not None
-        return (abs(seen.height - self.reference.height) <= SHAPE_HEIGHT_M
-                and abs(seen.top - self.reference.top) <= SHAPE_HEIGHT_M)
-
-    def _terms(self, hm: Heightmap, seg: np.ndarray, lab: np.ndarray, predicted: np.ndarray,
-               expected: tuple[float, float], gate: float) -> tuple[float | None, tuple | None]:
-        """(score, terms) of the candidate `seg` against the reference at one predicted place; (None, None) when its
-        centroid lies beyond `gate` cells of `expected` or its colour term under COLOUR_FLOOR."""
-        assert self.reference is not None
-        seen = describe(hm, seg, lab)
-        if math.hypot(seen.centroid[0] - expected[0], seen.centroid[1] - expected[1]) > gate:
-            return None, None
-        terms = match_terms(self.reference, seen, seg, predicted, expected, self.resolution)
-        if terms[0] < COLOUR_FLOOR:
-            return None, None
-        return W_COLOUR * terms[0] + W_FORM * terms[1] + W_PLACE * max(terms[2], terms[3]), terms
+        return SegmentScorer(self.reference, self.template, self.resolution)
 
     def _in_place(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, stay: np.ndarray,
                   arrived: np.ndarray, uncovered: np.ndarray) -> Track:
