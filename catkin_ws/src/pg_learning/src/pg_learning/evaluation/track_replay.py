@@ -1,0 +1,198 @@
+"""Tracked trials recorded once and replayed through the target tracker: tracker changes screened in seconds.
+
+``record``: runs trials as `pushgrasp eval --target-by point` runs them (pg_learning.evaluation.runner.run_trial,
+the shipped `lite` policy unless --policy) and keeps, per trial, every observation the target was tracked in
+(colour, height, valid, the simulator's ground-truth target mask) and every action's place, yaw and whether it was
+executed, one compressed ``<scene>_<seed>.npz`` each (about 20 kB), plus the trial records in ``trials.jsonl`` (the
+journal format: `pushgrasp compare` and `pushgrasp kinds` read the folder).
+
+``replay``: feeds the recorded observations and actions, in order, to a fresh TrialTarget (the tracker of the code
+that runs the replay) and scores every mask against the ground truth: the share of steps whose mask reaches IoU 0.7
+(steps where the target shows MIN_VISIBLE_CELLS or more, as the evaluation counts them) and, at the recorded
+grasps, the share whose mask reaches IoU 0.5. The actions are the recorded ones, so a replay measures the tracker on
+the trajectories of the code that recorded them; a closed-loop evaluation decides. Two replays of the same folder
+list the steps whose masks differ (`--against`).
+
+    python -m pg_learning.evaluation.track_replay record --scenes packed/case05 --seed 5000 --trials 10 \
+        --allow-train-seeds --out OUT/seq
+    python -m pg_learning.evaluation.track_replay replay OUT/seq --save OUT/seq.replay.json
+    python -m pg_learning.evaluation.track_replay replay OUT/seq --against OUT/seq.replay.json
+
+Frames and units: the heightmap grid of pg_core.heightmap; action places in metres in `world`, yaw in radians.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pg_core.heightmap import Heightmap
+from pg_learning.evaluation.target_by import POINT, TrialTarget
+from pg_policy.target_loop.metrics import MIN_VISIBLE_CELLS
+
+FOUND_IOU, GRASP_IOU = 0.7, 0.5
+
+
+class _Recorder:
+    """Wraps TrialTarget.observe / acted to keep what one trial tracked."""
+
+    def __init__(self) -> None:
+        self.views: list[tuple[Heightmap, np.ndarray]] = []
+        self.actions: list[tuple[float, float, float, float, float]] = []
+        self._observe, self._acted = TrialTarget.observe, TrialTarget.acted
+        recorder = self
+
+        def observe(target: TrialTarget, hm: Heightmap, truth: np.ndarray) -> np.ndarray:
+            recorder.views.append((hm, np.asarray(truth, bool).copy()))
+            return recorder._observe(target, hm, truth)
+
+        def acted(target: TrialTarget, decision: Any, result: Any) -> None:
+            recorder.actions.append((float(str(decision.primitive) == "push"), float(decision.x), float(decision.y),
+                                     float(decision.yaw), float(not getattr(result, "refused", False))))
+            recorder._acted(target, decision, result)
+
+        TrialTarget.observe, TrialTarget.acted = observe, acted  # type: ignore[method-assign]
+
+    def close(self) -> None:
+        TrialTarget.observe, TrialTarget.acted = self._observe, self._acted  # type: ignore[method-assign]
+
+
+def record(scenes: list[str], seed: int, trials: int, out: Path, policy: str = "lite", colours: str = "repeated",
+           allow_train_seeds: bool = False) -> int:
+    """Record `trials` trials of each scene (seeds seed .. seed + trials - 1) into `out`; trials already there are
+    kept (resumable). Returns the number recorded. ValueError for an evaluation seed check that fails."""
+    from pg_learning.environment.sim_env import SimEnv
+    from pg_learning.evaluation.runner import DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW, run_trial, trial_scene
+    from pg_policy.policies.registry import make_policy
+    from pg_policy.target_loop.episode import Limits, check_eval_seed
+
+    if not allow_train_seeds:
+        check_eval_seed(seed)
+    out.mkdir(parents=True, exist_ok=True)
+    journal = out / "trials.jsonl"
+    if not journal.exists():
+        journal.write_text(json.dumps({"run": {"recorder": "track_replay", "policy": policy, "colours": colours,
+                                                "target_by": POINT}}) + "\n")
+    done = 0
+    rec = _Recorder()
+    try:
+        with SimEnv(colours=colours) as env, journal.open("a") as log:
+            pol = make_policy(policy)
+            for scene in scenes:
+                for s in range(seed, seed + trials):
+                    path = out / f"{scene.replace('/', '_')}_{s}.npz"
+                    if path.exists():
+                        continue
+                    rec.views, rec.actions = [], []
+                    result = run_trial(env, pol, trial_scene(scene, s, DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW), s,
+                                       Limits(), scene_name=scene, target_by=POINT)
+                    log.write(json.dumps({"trial": result.to_dict()}, default=str) + "\n")
+                    log.flush()
+                    if rec.views:
+                        _save(path, rec, scene, s, result)
+                    done += 1
+                    print(f"{scene} seed {s}: {result.termination}, {len(rec.views)} views", flush=True)
+    finally:
+        rec.close()
+    return done
+
+
+def _save(path: Path, rec: _Recorder, scene: str, seed: int, result: Any) -> None:
+    hms = [v[0] for v in rec.views]
+    grasps = [a["decision"]["primitive"] == "grasp" for a in result.to_dict()["actions"]]
+    meta = {"scene": scene, "seed": seed, "resolution": hms[0].resolution, "grasps": grasps}
+    np.savez_compressed(path, color=np.stack([h.color for h in hms]), height=np.stack([h.height for h in hms]),
+                        valid=np.stack([h.valid for h in hms]), truth=np.stack([v[1] for v in rec.views]),
+                        bounds=hms[0].bounds, actions=np.array(rec.actions, np.float64).reshape(-1, 5),
+                        meta=json.dumps(meta))
+
+
+class _Decision:
+    def __init__(self, primitive: str, x: float, y: float, yaw: float) -> None:
+        self.primitive, self.x, self.y, self.yaw = primitive, x, y, yaw
+
+
+class _Result:
+    def __init__(self, refused: bool) -> None:
+        self.refused = refused
+
+
+def replay_trial(path: Path, push_length: float) -> dict[str, Any]:
+    """The tracker's masks over one recorded trial: scene, seed, per step IoU (None: nothing to score), mask digest,
+    whether the target showed enough to count, whether the step was a grasp."""
+    z = np.load(path)
+    meta = json.loads(str(z["meta"]))
+    target = TrialTarget(POINT, push_length)
+    steps = []
+    for t in range(z["height"].shape[0]):
+        hm = Heightmap(z["color"][t], z["height"][t], z["valid"][t], meta["resolution"], z["bounds"])
+        mask = target.observe(hm, z["truth"][t])
+        view = target.view
+        steps.append({"iou": view["iou"], "digest": hashlib.md5(np.packbits(mask).tobytes()).hexdigest()[:12],
+                      "counted": view["truth_cells"] >= MIN_VISIBLE_CELLS and view["iou"] is not None,
+                      "grasp": t < len(meta["grasps"]) and bool(meta["grasps"][t]), "why": view["why"]})
+        if t < len(z["actions"]):
+            a = z["actions"][t]
+            target.acted(_Decision("push" if a[0] > 0.5 else "grasp", a[1], a[2], a[3]), _Result(a[4] < 0.5))
+    return {"scene": meta["scene"], "seed": meta["seed"], "steps": steps}
+
+
+def summary(trials: list[dict[str, Any]]) -> dict[str, float]:
+    """Steps counted and found (IoU >= FOUND_IOU), grasps counted and on the target (IoU >= GRASP_IOU)."""
+    counted = [s for t in trials for s in t["steps"] if s["counted"]]
+    grasps = [s for s in counted if s["grasp"]]
+    return {"steps": len(counted), "found": sum(s["iou"] >= FOUND_IOU for s in counted),
+            "grasps": len(grasps), "grasps_on_target": sum(s["iou"] >= GRASP_IOU for s in grasps)}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
+    sub = ap.add_subparsers(dest="command", required=True)
+    rec = sub.add_parser("record", help="run and record tracked trials")
+    rec.add_argument("--scenes", nargs="+", required=True, help="scene names or generated families")
+    rec.add_argument("--seed", type=int, default=1_000_000, help="first trial seed of each scene")
+    rec.add_argument("--trials", type=int, default=10, help="trials per scene")
+    rec.add_argument("--policy", default="lite", help="policy name or model directory")
+    rec.add_argument("--colours", default="repeated", help="scene colours: unique, repeated or same")
+    rec.add_argument("--allow-train-seeds", action="store_true", help="accept seeds below 1,000,000")
+    rec.add_argument("--out", type=Path, required=True, help="folder of the recorded trials")
+    rep = sub.add_parser("replay", help="replay recorded trials through this code's tracker")
+    rep.add_argument("folder", type=Path, help="a folder written by `record`")
+    rep.add_argument("--save", type=Path, help="write the per-step masks' IoUs and digests here (JSON)")
+    rep.add_argument("--against", type=Path, help="a saved replay of the same folder: list the steps that differ")
+    args = ap.parse_args(argv)
+    if args.command == "record":
+        if args.trials < 1:
+            ap.error(f"--trials must be >= 1, got {args.trials}")
+        record(args.scenes, args.seed, args.trials, args.out, args.policy, args.colours, args.allow_train_seeds)
+        return 0
+    from pg_core.geometry import load
+
+    files = sorted(args.folder.glob("*.npz"))
+    if not files:
+        ap.error(f"{args.folder}: no recorded trials (*.npz)")
+    trials = [replay_trial(f, load().primitives.push_length) for f in files]
+    s = summary(trials)
+    print(f"{args.folder}: {len(trials)} trials; IoU >= {FOUND_IOU} on {s['found']} / {s['steps']} steps "
+          f"({100 * s['found'] / max(s['steps'], 1):.1f} %); at grasps IoU >= {GRASP_IOU} on "
+          f"{s['grasps_on_target']} / {s['grasps']}")
+    if args.save:
+        args.save.write_text(json.dumps(trials))
+    if args.against:
+        before = {(t["scene"], t["seed"]): t for t in json.loads(args.against.read_text())}
+        for t in trials:
+            b = before.get((t["scene"], t["seed"]))
+            if b and [s["digest"] for s in b["steps"]] != [s["digest"] for s in t["steps"]]:
+                print(f"  {t['scene']} seed {t['seed']}: IoU {[s['iou'] for s in t['steps']]} against "
+                      f"{[s['iou'] for s in b['steps']]}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

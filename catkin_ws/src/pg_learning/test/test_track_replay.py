@@ -1,0 +1,29 @@
+"""pg_learning.evaluation.track_replay: a recorded trial replays to the masks the trial tracked (the same IoU at
+every step as its record says), and a folder without recorded trials is refused."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from pg_core.geometry import load
+from pg_learning.evaluation.track_replay import main, record, replay_trial, summary
+
+
+def test_a_recorded_trial_replays_to_the_masks_it_tracked(tmp_path):
+    assert record(["packed/case05"], 5001, 1, tmp_path, allow_train_seeds=True) == 1
+    trial = json.loads((tmp_path / "trials.jsonl").read_text().splitlines()[1])["trial"]
+    recorded = [a["target"]["iou"] for a in trial["actions"]]
+    replayed = replay_trial(tmp_path / "packed_case05_5001.npz", load().primitives.push_length)
+    assert [s["iou"] for s in replayed["steps"]][: len(recorded)] == recorded
+    s = summary([replayed])
+    assert 0 < s["steps"] <= len(replayed["steps"]) and s["found"] <= s["steps"]
+    assert record(["packed/case05"], 5001, 1, tmp_path, allow_train_seeds=True) == 0  # kept: resumable
+
+
+def test_an_evaluation_seed_check_and_an_empty_folder_are_refused(tmp_path):
+    with pytest.raises(ValueError):
+        record(["packed/case05"], 5001, 1, tmp_path)  # a training seed without --allow-train-seeds
+    with pytest.raises(SystemExit):
+        main(["replay", str(tmp_path)])
