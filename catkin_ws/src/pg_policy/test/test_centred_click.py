@@ -57,6 +57,20 @@ def test_a_click_at_a_block_between_two_look_alikes_names_that_block():
     assert _iou(mask, bar) >= 0.9 and (mask & cube).sum() <= SIDE and not (mask & other).any()  # a cube's row at most
 
 
+def test_an_object_with_lobes_clicked_beside_its_core_is_kept_whole():
+    # three widening arms from a small core, like a novel part: clicked off its centre, the point-symmetric part is
+    # the core and two arms are left as pieces, but the core fills less of its convex hull than a block does
+    rr, cc = np.mgrid[:120, :120]
+    lobed = np.hypot(rr - 60, cc - 60) < 8
+    for angle in (90.0, 210.0, 330.0):
+        a = np.radians(angle)
+        along = (rr - 60) * np.sin(a) + (cc - 60) * np.cos(a)
+        across = -(rr - 60) * np.cos(a) + (cc - 60) * np.sin(a)
+        lobed |= (along > 0) & (along < 20) & (np.abs(across) < 6 + 0.2 * along)
+    for row, col in ((58, 54), (66, 56)):
+        assert np.array_equal(centred_on(lobed, row, col), lobed)
+
+
 def test_a_small_piece_beside_a_look_alike_keeps_the_segment_whole():
     # beside the look-alike, a piece a tenth of the clicked object's area (a handle or a spout of the object's
     # own, not an object): the cut is not trusted

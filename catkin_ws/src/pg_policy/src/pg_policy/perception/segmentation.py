@@ -58,7 +58,8 @@ segment is cut to its part that is point-symmetric about the click (a cell is ke
 clicked cell is in the segment too; on the grid, at most a cell's width off). The cut is kept only when what it
 leaves is one connected piece of at least CUT_REST_RATIO times its area (a look-alike block beside the clicked one,
 not the two ends of a curved object clicked in its middle), or several pieces, the largest that large and each at
-least CUT_EXTRA_RATIO times its area (the clicked block touching two look-alikes, a bar and a cube, on two sides);
+least CUT_EXTRA_RATIO times its area, where the kept part fills CUT_SOLIDITY of its convex hull (the clicked block
+touching two look-alikes, a bar and a cube, on two sides; not the core of an object with lobes);
 pieces under MIN_OBJECT_CELLS or no thicker than a strip of RIM_STRIP_CELLS (the clicked object's own rim, off by a
 cell) stay with it. Labels are 1..N, numbered in raster order of their first cell (deterministic
 for a given heightmap).
@@ -96,6 +97,7 @@ CUT_CENTROID_DEPTH_CELLS = 3.0  # `centred_on`: the segment's centroid lies this
 CUT_MIN_ROUNDNESS = 0.4  # `centred_on`: only a segment this round (minor / major spread) or rounder is cut
 CUT_REST_RATIO = 0.5  # `centred_on`: the cut-away rest's largest piece is at least this fraction of the kept part
 RIM_STRIP_CELLS = 1.5  # `centred_on`: a cut-away piece no thicker (cells to its edge) is the kept part's rim
+CUT_SOLIDITY = 0.9  # `centred_on`: ... and the kept part fills this share of its convex hull (a block, not a core)
 CUT_EXTRA_RATIO = 0.25  # `centred_on`: with several cut-away pieces, each is at least this fraction of the kept part
 EDGE_LEVELS = 255  # edge strengths are quantised to 0..EDGE_LEVELS for the watershed (uint8)
 
@@ -342,6 +344,15 @@ def _low_piece(hm: Heightmap, segment: np.ndarray, row: int, col: int) -> np.nda
     return piece
 
 
+def _solidity(mask: np.ndarray) -> float:
+    """The area of the (H, W) bool `mask`'s largest outer contour over that of its convex hull (1: convex)."""
+    contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    if not contours:
+        return 0.0
+    outline = max(contours, key=cv2.contourArea)
+    return float(cv2.contourArea(outline) / max(cv2.contourArea(cv2.convexHull(outline)), 1e-9))
+
+
 def centred_on(segment: np.ndarray, row: int, col: int) -> np.ndarray:
     """(H, W) bool: the part of the (H, W) bool `segment` centred on its clicked cell (row, col) (module docstring),
     or `segment` itself when the click is near its centroid, the centroid lies off it, or the cut leaves no
@@ -377,6 +388,6 @@ def centred_on(segment: np.ndarray, row: int, col: int) -> np.ndarray:
     kept = int(part.sum())
     if kept < MIN_OBJECT_CELLS or len(pieces) == 0 or sizes[pieces].max() < CUT_REST_RATIO * kept:
         return segment
-    if len(pieces) > 1 and (sizes[pieces] < CUT_EXTRA_RATIO * kept).any():
-        return segment  # a small piece beside a large one: an object's own part (a handle), not a look-alike
+    if len(pieces) > 1 and ((sizes[pieces] < CUT_EXTRA_RATIO * kept).any() or _solidity(part) < CUT_SOLIDITY):
+        return segment  # a small piece beside a large one (a handle), or the core of a lobed object: one object
     return segment & ~np.isin(rest_parts, pieces)
