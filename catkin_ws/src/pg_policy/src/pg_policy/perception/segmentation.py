@@ -59,10 +59,9 @@ clicked cell is in the segment too; on the grid, at most a cell's width off). Th
 leaves is one connected piece of at least CUT_REST_RATIO times its area (a look-alike block beside the clicked one,
 not the two ends of a curved object clicked in its middle), or several pieces, the largest that large and each at
 least CUT_EXTRA_RATIO times its area, where the kept part fills CUT_SOLIDITY of its convex hull (the clicked block
-touching two look-alikes, a bar and a cube, on two sides; not the core of an object with lobes);
-pieces under MIN_OBJECT_CELLS or no thicker than a strip of RIM_STRIP_CELLS (the clicked object's own rim, off by a
-cell) stay with it. Labels are 1..N, numbered in raster order of their first cell (deterministic
-for a given heightmap).
+touching two look-alikes, a bar and a cube, on two sides; not the core of an object with lobes); pieces under
+MIN_OBJECT_CELLS or no thicker than a strip of RIM_STRIP_CELLS (the clicked object's own rim, off by a cell) stay
+with it. Labels are 1..N, numbered in raster order of their first cell (deterministic for a given heightmap).
 
 Raised: ValueError for a heightmap whose arrays disagree in shape or dtype, and (`segment_at`) for a cell outside
 the grid, invalid, on bare table, or on a sliver that belongs to no object.
@@ -97,8 +96,8 @@ CUT_CENTROID_DEPTH_CELLS = 3.0  # `centred_on`: the segment's centroid lies this
 CUT_MIN_ROUNDNESS = 0.4  # `centred_on`: only a segment this round (minor / major spread) or rounder is cut
 CUT_REST_RATIO = 0.5  # `centred_on`: the cut-away rest's largest piece is at least this fraction of the kept part
 RIM_STRIP_CELLS = 1.5  # `centred_on`: a cut-away piece no thicker (cells to its edge) is the kept part's rim
-CUT_SOLIDITY = 0.9  # `centred_on`: ... and the kept part fills this share of its convex hull (a block, not a core)
 CUT_EXTRA_RATIO = 0.25  # `centred_on`: with several cut-away pieces, each is at least this fraction of the kept part
+CUT_SOLIDITY = 0.9  # `centred_on`: ... and the kept part fills this share of its convex hull (a block, not a core)
 EDGE_LEVELS = 255  # edge strengths are quantised to 0..EDGE_LEVELS for the watershed (uint8)
 
 

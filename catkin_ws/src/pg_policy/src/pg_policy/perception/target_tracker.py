@@ -225,19 +225,18 @@ class TargetTracker:
         if not scored:
             return self._refind(hm, labels, lab, others, f"no object within {GATE_M + math.hypot(dx, dy):.2f} m "
                                 "of where it was expected")
-        best, terms, mask, merged = scored[0][0], scored[0][2], scored[0][3], scored[0][4]
+        best, terms, mask, how = scored[0][0], scored[0][2], scored[0][3], scored[0][4]
         detail = "colour {:.2f} form {:.2f} overlap {:.2f} near {:.2f}".format(*terms)
         if best < FOUND_SCORE:
             return self._refind(hm, labels, lab, others, f"best segment scores {best:.2f} < {FOUND_SCORE} ({detail})")
         self._found(hm, mask, lab)
         self.anchor = None  # found where it moved to: the named cell no longer marks it
         runner = scored[1][0] if len(scored) > 1 else 0.0
-        if merged == "merged":
+        if how == "merged":
             return Track(mask, float(best), True,
                          f"{where}merged with a touching object: cut to the predicted place ({detail})")
-        if merged == "shaped":
+        if how == "shaped":
             detail += "; cut to its shape from a segment it shares"
-
         if best < SURE_SCORE:
             return Track(mask, float(best), True, f"{where}weak match {best:.2f} < {SURE_SCORE} ({detail})")
         if where:
