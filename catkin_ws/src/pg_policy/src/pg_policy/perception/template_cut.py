@@ -3,8 +3,9 @@
 Touching objects of one colour and one height are one segment (pg_policy.perception.segmentation); after a push the
 target can lie in such a segment with a look-alike. A rigid object keeps its outline from view to view up to a
 rotation and a shift, so the target's record (`Template.of`: its cells in the view its form was recorded from,
-cropped) is placed in the segment at every rotation of ANGLE_STEP_DEG and every shift (OpenCV's matchTemplate counts
-the template's cells that land on the segment), and the placements that FIT_MIN of the template's cells land on are
+cropped; only a block-like record, MIN_SOLIDITY) is placed in the segment at every rotation of ANGLE_STEP_DEG and
+every shift (OpenCV's matchTemplate counts the template's cells that land on the segment), and the placements that
+FIT_MIN of the template's cells land on are
 the places the target can be. `cut` takes the one whose centroid lies nearest the place the target is expected at
 (the tracker's predicted place): the segment's cells within one cell of that placement. `look_alike_cut` keeps such
 a cut only where it is evidence of a look-alike: the segment meets the predicted mask and the cut leaves a connected
@@ -26,6 +27,8 @@ ANGLE_STEP_DEG = 7.5  # rotations of the template tried, over the full turn (an 
 FIT_MIN = 0.9  # a placement fits when this share of the template's cells lands on the segment
 REST_MIN = 0.8  # what the cut leaves holds a piece of at least this many times the template's area (a look-alike)
 MIN_TEMPLATE_CELLS = 40  # smaller records (a sliver) give no template: too many places fit them
+MIN_SOLIDITY = 0.9  # a record that fills less of its convex hull gives no template: not a block (a part of an
+# object, a handle, a lobed shape), whose outline says little about where the rest of a segment belongs
 
 
 @dataclass(frozen=True)
@@ -38,8 +41,8 @@ class Template:
 
     @classmethod
     def of(cls, mask: np.ndarray) -> Template | None:
-        """The Template of the (H, W) bool `mask`; None when it holds fewer than MIN_TEMPLATE_CELLS cells. Raises
-        ValueError for an empty mask."""
+        """The Template of the (H, W) bool `mask`; None when it holds fewer than MIN_TEMPLATE_CELLS cells or fills
+        less than MIN_SOLIDITY of its convex hull (its largest outline's). Raises ValueError for an empty mask."""
         mask = np.asarray(mask, bool)
         rows, cols = np.nonzero(mask)
         if rows.size == 0:
@@ -47,6 +50,10 @@ class Template:
         if rows.size < MIN_TEMPLATE_CELLS:
             return None
         crop = mask[rows.min() : rows.max() + 1, cols.min() : cols.max() + 1]
+        contours, _ = cv2.findContours(crop.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+        outline = max(contours, key=cv2.contourArea)
+        if cv2.contourArea(outline) < MIN_SOLIDITY * cv2.contourArea(cv2.convexHull(outline)):
+            return None
         side = int(np.ceil(np.hypot(*crop.shape))) + 2
         pad = np.zeros((side, side), np.uint8)
         r0, c0 = (side - crop.shape[0]) // 2, (side - crop.shape[1]) // 2
