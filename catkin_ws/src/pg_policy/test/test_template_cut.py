@@ -1,6 +1,6 @@
 """pg_policy.perception.template_cut, and the tracker using it: a target lying in one segment with a look-alike of
 its colour and height is cut out by its own outline, turned as it lies, at the place the push predicts; a target
-that merely shows more of itself is not cut; small or empty records are refused."""
+that merely shows more of itself is not cut; small, empty or not block-like records give no template."""
 
 from __future__ import annotations
 
@@ -38,6 +38,12 @@ def test_a_record_too_small_gives_no_template_and_an_empty_one_is_refused():
     assert Template.of(_box((40, 40), 10, 10, 5, 5)) is None  # 25 cells: a sliver fits anywhere
     with pytest.raises(ValueError, match="non-empty"):
         Template.of(np.zeros((40, 40), bool))
+
+
+def test_a_record_that_is_no_block_gives_no_template():
+    ell = _box((60, 60), 10, 10, 30, 8) | _box((60, 60), 32, 10, 8, 30)  # an L: a handle, a part, not a block
+    assert Template.of(ell) is None
+    assert Template.of(_box((60, 60), 10, 10, 12, 30)) is not None
 
 
 def test_two_bars_side_by_side_are_cut_at_the_one_nearest_the_expected_place():
