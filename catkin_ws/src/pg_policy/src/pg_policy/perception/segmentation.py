@@ -343,7 +343,7 @@ def _low_piece(hm: Heightmap, segment: np.ndarray, row: int, col: int) -> np.nda
     return piece
 
 
-def _solidity(mask: np.ndarray) -> float:
+def solidity(mask: np.ndarray) -> float:
     """The area of the (H, W) bool `mask`'s largest outer contour over that of its convex hull (1: convex)."""
     contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     if not contours:
@@ -387,6 +387,6 @@ def centred_on(segment: np.ndarray, row: int, col: int) -> np.ndarray:
     kept = int(part.sum())
     if kept < MIN_OBJECT_CELLS or len(pieces) == 0 or sizes[pieces].max() < CUT_REST_RATIO * kept:
         return segment
-    if len(pieces) > 1 and ((sizes[pieces] < CUT_EXTRA_RATIO * kept).any() or _solidity(part) < CUT_SOLIDITY):
+    if len(pieces) > 1 and ((sizes[pieces] < CUT_EXTRA_RATIO * kept).any() or solidity(part) < CUT_SOLIDITY):
         return segment  # a small piece beside a large one (a handle), or the core of a lobed object: one object
     return segment & ~np.isin(rest_parts, pieces)

@@ -5,12 +5,11 @@ target can lie in such a segment with a look-alike. A rigid object keeps its out
 rotation and a shift, so the target's record (`Template.of`: its cells in the view its form was recorded from,
 cropped; only a block-like record, MIN_SOLIDITY) is placed in the segment at every rotation of ANGLE_STEP_DEG and
 every shift (OpenCV's matchTemplate counts the template's cells that land on the segment), and the placements that
-FIT_MIN of the template's cells land on are
-the places the target can be. `cut` takes the one whose centroid lies nearest the place the target is expected at
-(the tracker's predicted place): the segment's cells within one cell of that placement. `look_alike_cut` keeps such
-a cut only where it is evidence of a look-alike: the segment meets the predicted mask and the cut leaves a connected
-piece of at least REST_MIN times the template's area (a target that merely shows more of itself than in its record,
-turned onto a larger face, leaves less).
+FIT_MIN of the template's cells land on are the places the target can be. `cut` takes the one whose centroid lies
+nearest the place the target is expected at (the tracker's predicted place): the segment's cells within one cell of
+that placement. `look_alike_cut` keeps such a cut only where it is evidence of a look-alike: the segment meets the
+predicted mask and the cut leaves a connected piece of at least REST_MIN times the template's area (a target that
+merely shows more of itself than in its record, turned onto a larger face, leaves less).
 
 Frames and units: masks are (H, W) bool over heightmap cells (rows along y, columns along x); centroids are
 (row, col) in cells. Deterministic. Raised: ValueError for an empty template mask.
@@ -22,6 +21,8 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+
+from pg_policy.perception.segmentation import solidity
 
 ANGLE_STEP_DEG = 7.5  # rotations of the template tried, over the full turn (an asymmetric outline: a triangle)
 FIT_MIN = 0.9  # a placement fits when this share of the template's cells lands on the segment
@@ -50,9 +51,7 @@ class Template:
         if rows.size < MIN_TEMPLATE_CELLS:
             return None
         crop = mask[rows.min() : rows.max() + 1, cols.min() : cols.max() + 1]
-        contours, _ = cv2.findContours(crop.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-        outline = max(contours, key=cv2.contourArea)
-        if cv2.contourArea(outline) < MIN_SOLIDITY * cv2.contourArea(cv2.convexHull(outline)):
+        if solidity(crop) < MIN_SOLIDITY:
             return None
         side = int(np.ceil(np.hypot(*crop.shape))) + 2
         pad = np.zeros((side, side), np.uint8)
