@@ -20,6 +20,9 @@ def test_a_recorded_trial_replays_to_the_masks_it_tracked(tmp_path):
     s = summary([replayed])
     assert 0 < s["steps"] <= len(replayed["steps"]) and s["found"] <= s["steps"]
     assert record(["packed/case05"], 5001, 1, tmp_path, allow_train_seeds=True) == 0  # kept: resumable
+    saved = tmp_path / "replay.json"
+    assert main(["replay", str(tmp_path), "--save", str(saved)]) == 0
+    assert [s["iou"] for s in json.loads(saved.read_text())[0]["steps"]] == [s["iou"] for s in replayed["steps"]]
 
 
 def test_an_evaluation_seed_check_and_an_empty_folder_are_refused(tmp_path):

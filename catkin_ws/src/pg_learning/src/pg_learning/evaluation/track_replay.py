@@ -39,28 +39,31 @@ from pg_policy.target_loop.metrics import MIN_VISIBLE_CELLS
 FOUND_IOU, GRASP_IOU = 0.7, 0.5
 
 
-class _Recorder:
-    """Wraps TrialTarget.observe / acted to keep what one trial tracked."""
+class _Views:
+    """Wraps one environment instance's reset / observe (as track_figure's Watcher does) to keep every observation:
+    (heightmap, the simulator's ground-truth target mask)."""
 
-    def __init__(self) -> None:
-        self.views: list[tuple[Heightmap, np.ndarray]] = []
-        self.actions: list[tuple[float, float, float, float, float]] = []
-        self._observe, self._acted = TrialTarget.observe, TrialTarget.acted
-        recorder = self
+    def __init__(self, env: Any) -> None:
+        self.seen: list[tuple[Heightmap, np.ndarray]] = []
+        self._reset, self._observe = env.reset, env.observe
+        self._resetting = False
+        env.reset, env.observe = self.reset, self.observe
 
-        def observe(target: TrialTarget, hm: Heightmap, truth: np.ndarray) -> np.ndarray:
-            recorder.views.append((hm, np.asarray(truth, bool).copy()))
-            return recorder._observe(target, hm, truth)
+    def _keep(self, obs: Any) -> Any:
+        self.seen.append((obs.heightmap, np.asarray(obs.truth_target, bool).copy()))
+        return obs
 
-        def acted(target: TrialTarget, decision: Any, result: Any) -> None:
-            recorder.actions.append((float(str(decision.primitive) == "push"), float(decision.x), float(decision.y),
-                                     float(decision.yaw), float(not getattr(result, "refused", False))))
-            recorder._acted(target, decision, result)
+    def reset(self, *args: Any, **kwargs: Any) -> Any:
+        self._resetting = True  # the environment observes within reset: that view is the one reset returns
+        try:
+            obs = self._reset(*args, **kwargs)
+        finally:
+            self._resetting = False
+        return self._keep(obs)
 
-        TrialTarget.observe, TrialTarget.acted = observe, acted  # type: ignore[method-assign]
-
-    def close(self) -> None:
-        TrialTarget.observe, TrialTarget.acted = self._observe, self._acted  # type: ignore[method-assign]
+    def observe(self) -> Any:
+        obs = self._observe()
+        return obs if self._resetting else self._keep(obs)
 
 
 def record(scenes: list[str], seed: int, trials: int, out: Path, policy: str = "lite", colours: str = "repeated",
@@ -80,36 +83,36 @@ def record(scenes: list[str], seed: int, trials: int, out: Path, policy: str = "
         journal.write_text(json.dumps({"run": {"recorder": "track_replay", "policy": policy, "colours": colours,
                                                 "target_by": POINT}}) + "\n")
     done = 0
-    rec = _Recorder()
-    try:
-        with SimEnv(colours=colours) as env, journal.open("a") as log:
-            pol = make_policy(policy)
-            for scene in scenes:
-                for s in range(seed, seed + trials):
-                    path = out / f"{scene.replace('/', '_')}_{s}.npz"
-                    if path.exists():
-                        continue
-                    rec.views, rec.actions = [], []
-                    result = run_trial(env, pol, trial_scene(scene, s, DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW), s,
-                                       Limits(), scene_name=scene, target_by=POINT)
-                    log.write(json.dumps({"trial": result.to_dict()}, default=str) + "\n")
-                    log.flush()
-                    if rec.views:
-                        _save(path, rec, scene, s, result)
-                    done += 1
-                    print(f"{scene} seed {s}: {result.termination}, {len(rec.views)} views", flush=True)
-    finally:
-        rec.close()
+    with SimEnv(colours=colours) as env, journal.open("a") as log:
+        views = _Views(env)
+        pol = make_policy(policy)
+        for scene in scenes:
+            for s in range(seed, seed + trials):
+                path = out / f"{scene.replace('/', '_')}_{s}.npz"
+                if path.exists():
+                    continue
+                views.seen = []
+                result = run_trial(env, pol, trial_scene(scene, s, DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW), s,
+                                   Limits(), scene_name=scene, target_by=POINT)
+                trial = result.to_dict()
+                log.write(json.dumps({"trial": trial}, default=str) + "\n")
+                log.flush()
+                if views.seen:
+                    _save(path, views.seen, trial)
+                done += 1
+                print(f"{scene} seed {s}: {result.termination}, {len(views.seen)} views", flush=True)
     return done
 
 
-def _save(path: Path, rec: _Recorder, scene: str, seed: int, result: Any) -> None:
-    hms = [v[0] for v in rec.views]
-    grasps = [a["decision"]["primitive"] == "grasp" for a in result.to_dict()["actions"]]
-    meta = {"scene": scene, "seed": seed, "resolution": hms[0].resolution, "grasps": grasps}
+def _save(path: Path, seen: list[tuple[Heightmap, np.ndarray]], trial: dict[str, Any]) -> None:
+    """One trial's file: its observations and, per action of its record, (push?, x, y, yaw, executed?)."""
+    hms = [hm for hm, _ in seen]
+    actions = [(float(a["decision"]["primitive"] == "push"), float(a["decision"]["x"]), float(a["decision"]["y"]),
+                float(a["decision"]["yaw"]), float(not a["outcome"].get("refused", False))) for a in trial["actions"]]
+    meta = {"scene": trial["scene"], "seed": trial["seed"], "resolution": hms[0].resolution}
     np.savez_compressed(path, color=np.stack([h.color for h in hms]), height=np.stack([h.height for h in hms]),
-                        valid=np.stack([h.valid for h in hms]), truth=np.stack([v[1] for v in rec.views]),
-                        bounds=hms[0].bounds, actions=np.array(rec.actions, np.float64).reshape(-1, 5),
+                        valid=np.stack([h.valid for h in hms]), truth=np.stack([t for _, t in seen]),
+                        bounds=hms[0].bounds, actions=np.array(actions, np.float64).reshape(-1, 5),
                         meta=json.dumps(meta))
 
 
@@ -136,7 +139,7 @@ def replay_trial(path: Path, push_length: float) -> dict[str, Any]:
         view = target.view
         steps.append({"iou": view["iou"], "digest": hashlib.md5(np.packbits(mask).tobytes()).hexdigest()[:12],
                       "counted": view["truth_cells"] >= MIN_VISIBLE_CELLS and view["iou"] is not None,
-                      "grasp": t < len(meta["grasps"]) and bool(meta["grasps"][t]), "why": view["why"]})
+                      "grasp": bool(t < len(z["actions"]) and z["actions"][t][0] < 0.5), "why": view["why"]})
         if t < len(z["actions"]):
             a = z["actions"][t]
             target.acted(_Decision("push" if a[0] > 0.5 else "grasp", a[1], a[2], a[3]), _Result(a[4] < 0.5))
@@ -177,7 +180,8 @@ def main(argv: list[str] | None = None) -> int:
     files = sorted(args.folder.glob("*.npz"))
     if not files:
         ap.error(f"{args.folder}: no recorded trials (*.npz)")
-    trials = [replay_trial(f, load().primitives.push_length) for f in files]
+    push_length = load().primitives.push_length
+    trials = [replay_trial(f, push_length) for f in files]
     s = summary(trials)
     print(f"{args.folder}: {len(trials)} trials; IoU >= {FOUND_IOU} on {s['found']} / {s['steps']} steps "
           f"({100 * s['found'] / max(s['steps'], 1):.1f} %); at grasps IoU >= {GRASP_IOU} on "
