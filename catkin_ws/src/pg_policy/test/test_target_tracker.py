@@ -200,6 +200,16 @@ def test_a_target_that_did_not_move_keeps_its_cells_when_a_look_alike_is_pushed_
     assert "in place" in track.why and "touching object left out" in track.why
 
 
+def test_a_target_in_place_does_not_grow_into_a_look_alike_beside_it_in_one_segment():
+    view = _blocks((100, 100, RED), (100, 120, RED))  # two touching look-alikes: one segment of 800 cells
+    first = np.zeros((224, 224), bool)
+    first[100:120, 100:118] = True  # the first mask: most of the left block (360 cells)
+    tracker = TargetTracker()
+    tracker.start(view, first)
+    track = tracker.update(view, (0.0, 0.0))  # nothing moved (an action elsewhere)
+    assert "in place" in track.why and not track.mask[:, 120:].any(), track.why  # over twice its area: not grown
+
+
 def test_a_target_that_did_not_move_grows_by_what_a_removed_neighbour_uncovers():
     first = _blocks((100, 100, RED))
     first.height[100:120, 110:130] = 0.05  # a higher blue block covers the target's right half

@@ -69,7 +69,8 @@ class _Views:
 def record(scenes: list[str], seed: int, trials: int, out: Path, policy: str = "lite", colours: str = "repeated",
            allow_train_seeds: bool = False) -> int:
     """Record `trials` trials of each scene (seeds seed .. seed + trials - 1) into `out`; trials already there are
-    kept (resumable). Returns the number recorded. ValueError for an evaluation seed check that fails."""
+    kept (resumable); a trial that took no action (its target not in view to point at) is not. Returns the number
+    recorded. ValueError for an evaluation seed check that fails."""
     from pg_learning.environment.sim_env import SimEnv
     from pg_learning.evaluation.runner import DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW, run_trial, trial_scene
     from pg_policy.policies.registry import make_policy
@@ -97,10 +98,13 @@ def record(scenes: list[str], seed: int, trials: int, out: Path, policy: str = "
                 trial = result.to_dict()
                 log.write(json.dumps({"trial": trial}, default=str) + "\n")
                 log.flush()
-                if views.seen:
+                if views.seen and trial["actions"]:
                     _save(path, views.seen, trial)
-                done += 1
-                print(f"{scene} seed {s}: {result.termination}, {len(views.seen)} views", flush=True)
+                    done += 1
+                    print(f"{scene} seed {s}: {result.termination}, {len(views.seen)} views", flush=True)
+                else:  # no action: nothing was tracked (e.g. the target not in view to point at)
+                    print(f"{scene} seed {s}: {result.termination}, not recorded: {trial.get('error') or 'no action'}",
+                          flush=True)
     return done
 
 

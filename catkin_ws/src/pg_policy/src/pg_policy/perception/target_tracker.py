@@ -108,7 +108,7 @@ REFIND_SCORE = 0.8  # a target not found near its place is re-found where colour
 REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
 UNMOVED_FRACTION = 0.5  # a segment with this share of its cells unchanged since the target was last found: unmoved
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
-IN_PLACE_RATIO = 2.5  # a target in place grows to at most this many times the reference area (half covered: 2),
+IN_PLACE_RATIO = 2.0  # a target in place grows to at most this many times the reference area (half covered: 2),
 # or, when a cover left, to UNCOVERED_MAX_M2 (segment_scores) if that is more
 
 
