@@ -210,6 +210,25 @@ def test_a_target_in_place_does_not_grow_into_a_look_alike_beside_it_in_one_segm
     assert "in place" in track.why and not track.mask[:, 120:].any(), track.why  # over twice its area: not grown
 
 
+def test_a_large_target_uncovered_grows_to_two_and_a_half_times_what_was_seen():
+    def view(covered: bool) -> Heightmap:
+        height = np.zeros((224, 224), np.float32)
+        colour = np.full((224, 224, 3), 200, np.uint8)
+        height[100:140, 100:140], colour[100:140, 100:140] = 0.03, RED  # an 8 x 8 cm block
+        if covered:
+            height[96:144, 116:150], colour[96:144, 116:150] = 0.05, BLUE  # a higher block over 60 % of it
+        return Heightmap(colour, height, np.ones((224, 224), bool), GEO.heightmap.resolution, GEO.workspace.bounds)
+
+    first = np.zeros((224, 224), bool)
+    first[100:140, 100:116] = True  # the 40 % in view
+    tracker = TargetTracker()
+    tracker.start(view(True), first)
+    track = tracker.update(view(False))  # the cover is gone: 2.5 times the area first seen, over UNCOVERED_MAX_M2
+    truth = np.zeros((224, 224), bool)
+    truth[100:140, 100:140] = True
+    assert _iou(track.mask, truth) >= 0.9 and "in place" in track.why and "uncovered" in track.why, track.why
+
+
 def test_a_target_that_did_not_move_grows_by_what_a_removed_neighbour_uncovers():
     first = _blocks((100, 100, RED))
     first.height[100:120, 110:130] = 0.05  # a higher blue block covers the target's right half

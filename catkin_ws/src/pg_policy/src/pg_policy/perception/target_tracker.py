@@ -108,8 +108,9 @@ REFIND_SCORE = 0.8  # a target not found near its place is re-found where colour
 REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
 UNMOVED_FRACTION = 0.5  # a segment with this share of its cells unchanged since the target was last found: unmoved
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
-IN_PLACE_RATIO = 2.0  # a target in place grows to at most this many times the reference area (half covered: 2),
-# or, when a cover left, to UNCOVERED_MAX_M2 (segment_scores) if that is more
+IN_PLACE_RATIO = 2.5  # a target in place grows by what a cover laid bare to at most this many times the reference
+# area (half covered: 2), or to UNCOVERED_MAX_M2 (segment_scores) if that is more
+SEGMENT_GROW_RATIO = 2.0  # ... and by cells of its segments that were in view before to at most this many times
 
 
 @dataclass(frozen=True, eq=False)
@@ -256,10 +257,11 @@ class TargetTracker:
         cells of the segments they mostly fill that did not rise (a rise is something that moved in) and the
         `uncovered` cells of its colour (lower than before, or unseen before) of the segments `stay` lies in (what a
         removed cover laid bare), connected to `stay`; the first of those with the uncovered cells, without the
-        segments' other cells, or without the uncovered cells that stays within IN_PLACE_RATIO times the
-        reference's area or UNCOVERED_MAX_M2, whichever is more; else `stay` alone (a look-alike lies against it,
-        in one segment). When it grew so, the form of the reference follows it (the colour stays the first
-        view's)."""
+        segments' other cells, or without the uncovered cells that stays within its limit: UNCOVERED_MAX_M2 or
+        SEGMENT_GROW_RATIO times the reference's area, whichever is more, where it takes in segment cells that
+        were in view before (they were not the target's then), IN_PLACE_RATIO times it for the uncovered cells
+        alone; else `stay` alone (a look-alike lies against it, in one segment). When it grew so, the form of the
+        reference follows it (the colour stays the first view's)."""
         assert self.reference is not None
         segs, bared = np.zeros_like(stay), np.zeros_like(stay)
         weights = np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
@@ -271,12 +273,14 @@ class TargetTracker:
             if label and 2 * int((seg & stay).sum()) >= min(int(seg.sum()), int(stay.sum())):
                 segs |= seg
         grown = stay | (segs & ~arrived)
-        limit = max(IN_PLACE_RATIO * self.reference.area, UNCOVERED_MAX_M2 / self.resolution**2)
+        uncovered_max = UNCOVERED_MAX_M2 / self.resolution**2
+        limit = max(IN_PLACE_RATIO * self.reference.area, uncovered_max)
+        grow_limit = max(SEGMENT_GROW_RATIO * self.reference.area, uncovered_max)
         mask, whole = stay, False
-        for candidate in (grown | bared, stay | bared, grown):
+        for candidate, most in ((grown | bared, grow_limit), (stay | bared, limit), (grown, grow_limit)):
             _, parts = cv2.connectedComponents(candidate.astype(np.uint8), connectivity=8)
             part = np.isin(parts, np.unique(parts[stay]))
-            if part.sum() <= limit:
+            if part.sum() <= most:
                 mask, whole = part, True
                 break
         if whole:
