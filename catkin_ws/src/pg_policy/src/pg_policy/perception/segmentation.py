@@ -20,7 +20,8 @@ Method (OpenCV and scipy.ndimage):
    colour stay apart, while one object of uniform height and colour is one seed and one label;
 4. object cells the table basin reaches first (rims, pieces too thin for a seed) join the nearest label when they
    touch one, else form a label of their own;
-5. cells a single label encloses (a bowl's or cup's floor, lower than SEGMENT_HEIGHT_M or unseen) join it; labels
+5. cells a single label encloses (a bowl's or cup's floor, lower than SEGMENT_HEIGHT_M or unseen) join it, and so
+   does a raised floor of its colour that it encloses (pg_policy.perception.floors); labels
    under MIN_OBJECT_CELLS cells are dropped to 0; a label holding a connected piece of another chroma (COLOUR_EDGE
    apart, at least MIN_OBJECT_CELLS cells, meeting the rest at a colour edge) is split there
    (pg_policy.perception.colour_pieces: a rod or a small part too thin for a seed of its own, flooded from the
@@ -75,6 +76,7 @@ from scipy import ndimage
 
 from pg_core.heightmap import Heightmap
 from pg_policy.perception.colour_pieces import split_colours
+from pg_policy.perception.floors import join_floors
 from pg_policy.perception.long_pieces import join_pieces
 
 DEPTH_EDGE_M = 0.006  # height bend (m) within a 3 x 3 neighbourhood that makes a depth edge (a 6 mm step)
@@ -223,8 +225,9 @@ def segment_objects(hm: Heightmap, lab: np.ndarray | None = None) -> np.ndarray:
     flooded = ndimage.watershed_ift(levels, markers, structure=np.ones((3, 3), bool)).astype(np.int32)
     labels = np.where(objects & (flooded <= n), flooded, 0)
     labels = _renumber(_fill_holes(_adopt_orphans(labels, objects & (labels == 0), n), objects))
-    labels = _renumber(split_colours(labels, lab[..., 1:], colour, COLOUR_EDGE, MIN_OBJECT_CELLS))
     weighted = lab * np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
+    labels = _renumber(join_floors(labels, height, weighted, COLOUR_EDGE))
+    labels = _renumber(split_colours(labels, lab[..., 1:], colour, COLOUR_EDGE, MIN_OBJECT_CELLS))
     return _renumber(join_pieces(labels, np.asarray(hm.height, np.float32), np.asarray(hm.valid, bool), weighted,
                                  float(hm.resolution), COLOUR_EDGE))
 
