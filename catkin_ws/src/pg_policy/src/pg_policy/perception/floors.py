@@ -5,12 +5,11 @@ above the table (a bowl's or a cup's base, a toothed dish, a tray) bends where t
 floor becomes a label of its own that the wall's label encloses. A click at such an object's middle then names the
 floor alone. `join_floors` gives each such floor to its wall: a label whose outer border (the cells around it once
 its own holes are filled, up to GAP_CELLS away: a groove or an unseen slit may part floor and wall) lies, for at
-least ENCLOSED_SHARE of its labelled cells, on one other label, and for at most TABLE_SHARE on none, that lies
-in a hole of that label (a ring around it, not objects beside it), whose median
-colour is within `colour_edge` of that label's (chroma weighted Lab, as the segmentation measures it) and which
-lies at least FLOOR_STEP_M under that label (medians of their heights). An object lying in a vessel of another
-colour, or standing as high as the vessel's wall, is left alone; one of the vessel's colour, lower than its wall,
-is taken for its floor.
+least ENCLOSED_SHARE of its labelled cells, on one other label, and for at most TABLE_SHARE on none; that lies in a
+hole of that label (a ring around it, not objects beside it); whose median colour is within `colour_edge` of that
+label's (chroma weighted Lab, as the segmentation measures it); and which lies at least FLOOR_STEP_M under that
+label (medians of their heights). An object lying in a vessel of another colour, or standing as high as the
+vessel's wall, is left alone; one of the vessel's colour, lower than its wall, is taken for its floor.
 
 Frames and units: labels (H, W) int32 (0: table or unseen), heights (H, W) float32 m above the table, colours
 (H, W, 3) float32 Lab weighted as the caller compares colours. Deterministic.
