@@ -8,14 +8,15 @@ from typing import Any
 
 import numpy as np
 import pytest
+from tracker_testing import BLUE, GEO, RED
+from tracker_testing import blocks as _blocks
+from tracker_testing import iou as _iou
 
-from pg_core.geometry import load
 from pg_core.heightmap import Heightmap, pixel_to_world
 from pg_core.target_mask import target_mask
 from pg_policy.perception.target_tracker import TargetTracker
 from pg_policy.target_loop.target_spec import ColourTarget, MaskTarget, PointTarget, TargetFollower
 
-GEO = load()
 PUSH_Z = 0.01  # push height of the fingertips above the table (m)
 BEHIND = 0.05  # the push starts this far (m) behind the target's centre, along the push
 PUSH_SHIFT = 0.10  # the displacement (m) the push predicts for the target: 0.13 m travel less 0.03 m to reach it
@@ -37,10 +38,6 @@ def _scene(same_colour: bool) -> Any:
                             target=target, name=f"{shape}_{i}")
                  for i, (shape, colour, (x, y), target) in enumerate(layout))
     return SceneSpec("tracking", "green", objs, "test")
-
-
-def _iou(a: np.ndarray, b: np.ndarray) -> float:
-    return float((a & b).sum() / max((a | b).sum(), 1))
 
 
 def _centroid_m(hm: Heightmap, mask: np.ndarray) -> np.ndarray:
@@ -151,18 +148,6 @@ def test_update_before_start_and_a_mismatched_mask_are_refused():
         TargetTracker().start(_flat(), np.ones((3, 3), bool))
 
 
-def _blocks(*blocks: tuple[int, int, tuple[int, int, int]]) -> Heightmap:
-    """A heightmap of 4 x 4 cm blocks, 3 cm tall: (row, col, RGB) of each block's first cell."""
-    height = np.zeros((224, 224), np.float32)
-    colour = np.full((224, 224, 3), 200, np.uint8)
-    for row, col, rgb in blocks:
-        height[row : row + 20, col : col + 20], colour[row : row + 20, col : col + 20] = 0.03, rgb
-    return Heightmap(colour, height, np.ones((224, 224), bool), GEO.heightmap.resolution, GEO.workspace.bounds)
-
-
-RED, BLUE = (200, 40, 40), (40, 60, 200)
-
-
 def test_a_target_carried_beyond_reach_is_re_found_by_appearance_unless_another_looks_alike():
     tracker = TargetTracker()
     first = _blocks((20, 20, RED), (150, 150, BLUE))
@@ -189,60 +174,6 @@ def test_a_target_carried_beyond_reach_is_re_found_among_what_moved_not_in_a_loo
     assert not track.mask.any() and "not found" in track.why
 
 
-def test_a_target_that_did_not_move_keeps_its_cells_when_a_look_alike_is_pushed_against_it():
-    tracker = TargetTracker()
-    first = _blocks((100, 100, RED), (100, 160, RED))
-    target = np.zeros((224, 224), bool)
-    target[100:120, 100:120] = True
-    tracker.start(first, target)
-    track = tracker.update(_blocks((100, 100, RED), (100, 120, RED)), (0.0, 0.0))  # now touching: one segment
-    assert np.array_equal(track.mask, target) and not track.unsure
-    assert "in place" in track.why and "touching object left out" in track.why
-
-
-def test_a_target_in_place_does_not_grow_into_a_look_alike_beside_it_in_one_segment():
-    view = _blocks((100, 100, RED), (100, 120, RED))  # two touching look-alikes: one segment of 800 cells
-    first = np.zeros((224, 224), bool)
-    first[100:120, 100:118] = True  # the first mask: most of the left block (360 cells)
-    tracker = TargetTracker()
-    tracker.start(view, first)
-    track = tracker.update(view, (0.0, 0.0))  # nothing moved (an action elsewhere)
-    assert "in place" in track.why and not track.mask[:, 120:].any(), track.why  # over twice its area: not grown
-
-
-def test_a_large_target_uncovered_grows_to_two_and_a_half_times_what_was_seen():
-    def view(covered: bool) -> Heightmap:
-        height = np.zeros((224, 224), np.float32)
-        colour = np.full((224, 224, 3), 200, np.uint8)
-        height[100:140, 100:140], colour[100:140, 100:140] = 0.03, RED  # an 8 x 8 cm block
-        if covered:
-            height[96:144, 116:150], colour[96:144, 116:150] = 0.05, BLUE  # a higher block over 60 % of it
-        return Heightmap(colour, height, np.ones((224, 224), bool), GEO.heightmap.resolution, GEO.workspace.bounds)
-
-    first = np.zeros((224, 224), bool)
-    first[100:140, 100:116] = True  # the 40 % in view
-    tracker = TargetTracker()
-    tracker.start(view(True), first)
-    track = tracker.update(view(False))  # the cover is gone: 2.5 times the area first seen, over UNCOVERED_MAX_M2
-    truth = np.zeros((224, 224), bool)
-    truth[100:140, 100:140] = True
-    assert _iou(track.mask, truth) >= 0.9 and "in place" in track.why and "uncovered" in track.why, track.why
-
-
-def test_a_target_that_did_not_move_grows_by_what_a_removed_neighbour_uncovers():
-    first = _blocks((100, 100, RED))
-    first.height[100:120, 110:130] = 0.05  # a higher blue block covers the target's right half
-    first.color[100:120, 110:130] = BLUE
-    target = np.zeros((224, 224), bool)
-    target[100:120, 100:110] = True
-    tracker = TargetTracker()
-    tracker.start(first, target)
-    track = tracker.update(_blocks((100, 100, RED)))  # the blue block is gone
-    truth = np.zeros((224, 224), bool)
-    truth[100:120, 100:120] = True
-    assert _iou(track.mask, truth) >= 0.9 and "in place" in track.why
-
-
 def test_when_the_tracked_object_is_lifted_the_unmoved_look_alike_beside_it_is_the_target():
     tracker = TargetTracker()
     first = _blocks((100, 100, RED), (100, 130, RED), (20, 200, RED))
@@ -251,39 +182,6 @@ def test_when_the_tracked_object_is_lifted_the_unmoved_look_alike_beside_it_is_t
     tracker.start(first, wrong)
     track = tracker.update(_blocks((100, 130, RED), (20, 200, RED)))
     assert track.mask[105:115, 135:145].all() and not track.mask[20:40, 200:220].any(), track.why
-
-
-def test_a_target_mostly_covered_in_its_first_view_grows_to_all_a_removed_cover_uncovers():
-    first = _blocks((100, 100, RED))
-    first.height[96:124, 104:130] = 0.05  # a higher blue block covers all but a 4-cell strip of the target
-    first.color[96:124, 104:130] = BLUE
-    target = np.zeros((224, 224), bool)
-    target[100:120, 100:104] = True
-    tracker = TargetTracker()
-    tracker.start(first, target)
-    track = tracker.update(_blocks((100, 100, RED)))  # the cover is gone: 5 times the area first seen
-    truth = np.zeros((224, 224), bool)
-    truth[100:120, 100:120] = True
-    assert _iou(track.mask, truth) >= 0.9 and "in place" in track.why and "uncovered" in track.why, track.why
-
-
-def test_a_target_something_moves_onto_keeps_its_visible_part_and_is_in_place_when_uncovered():
-    first = _blocks((100, 100, RED), (100, 160, RED))  # the target and a look-alike 2 cm away
-    target = np.zeros((224, 224), bool)
-    target[100:120, 100:120] = True
-    tracker = TargetTracker()
-    tracker.start(first, target)
-    half = _blocks((100, 100, RED), (100, 160, RED))
-    half.height[100:120, 110:130], half.color[100:120, 110:130] = 0.05, BLUE  # a blue block lands on its right half
-    track = tracker.update(half)
-    assert not track.unsure and "partly covered" in track.why, track.why
-    assert track.mask[100:120, 100:108].all() and not track.mask[:, 110:].any()
-    whole = _blocks((100, 100, RED), (100, 160, RED))
-    whole.height[96:124, 96:124], whole.color[96:124, 96:124] = 0.05, BLUE  # ... and then covers all of it
-    track = tracker.update(whole)
-    assert not track.mask.any() and track.unsure and track.why.startswith("covered"), track.why
-    track = tracker.update(_blocks((100, 100, RED), (100, 160, RED)))  # the cover is gone
-    assert _iou(track.mask, target) >= 0.9 and "in place" in track.why and not track.unsure, track.why
 
 
 def test_after_unsure_tracks_led_to_a_look_alike_that_was_lifted_the_target_is_found_where_it_was_last_sure():

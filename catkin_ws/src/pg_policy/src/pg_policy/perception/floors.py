@@ -54,13 +54,12 @@ def join_floors(labels: np.ndarray, height: np.ndarray, weighted_lab: np.ndarray
         if wall == label or counts.max() < ENCLOSED_SHARE * labelled.size:
             continue
         wall_cells = out == wall
-        if not ndimage.binary_fill_holes(wall_cells)[out == label].all():
+        if not ndimage.binary_fill_holes(wall_cells)[part].all():
             continue  # not in a hole of the other label: beside it, not inside it
-        if float(np.median(height[out == label])) > float(np.median(height[wall_cells])) - FLOOR_STEP_M:
+        if float(np.median(height[part])) > float(np.median(height[wall_cells])) - FLOOR_STEP_M:
             continue  # it stands as high as its wall or higher: an object lying in the vessel, or a look-alike
-        lab = weighted_lab[r0:r1, c0:c1]
-        wall_lab = np.median(weighted_lab[out == wall], axis=0)
-        if float(np.linalg.norm(np.median(lab[window == label], axis=0) - wall_lab)) >= colour_edge:
+        wall_lab = np.median(weighted_lab[wall_cells], axis=0)
+        if float(np.linalg.norm(np.median(weighted_lab[part], axis=0) - wall_lab)) >= colour_edge:
             continue  # another colour: another object
-        out[out == label] = wall
+        out[part] = wall
     return out
