@@ -97,9 +97,10 @@ def test_the_pipeline_asks_the_proposals_when_no_best_cell_passes():
     check = JawGraspCheck.from_arg(GEO, "jaw-walls")
     check.top_k = 5  # the best 5 cells: the dome only
     alone = RulePipeline([check]).apply({"grasp": q, "push": np.zeros_like(q)}, ctx)
-    assert alone.push_instead and alone.vetoed["grasp"]
+    assert alone.push_instead and alone.vetoed["grasp"] and alone.proposed["grasp"] == ()
     both = RulePipeline([check, GraspSearch(GEO)]).apply({"grasp": q, "push": np.zeros_like(q)}, ctx)
     assert not both.push_instead and not both.vetoed["grasp"]
+    assert both.proposed == {"grasp": ("grasp_search",), "push": ()}  # what the decision record names
     r, row, col = np.unravel_index(int(np.argmax(both.q["grasp"])), q.shape)
     assert float(both.q["grasp"][r, row, col]) == 1.0  # the map's best value: the grasp-or-push choice unchanged
     assert np.hypot(row - C, col - C) <= 3 * np.sqrt(2) + 1e-9 and check.passes(hm, target, int(r), int(row), int(col))

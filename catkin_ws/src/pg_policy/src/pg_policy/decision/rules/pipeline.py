@@ -34,7 +34,8 @@ class RuleOutcome:
     """q: the adjusted maps {"grasp", "push"} the decision uses; shown: the maps after the "filter" rules only (what
     the policy shows users as its Q maps); push_instead: a vetoing grasp rule found no passing grasp; note: why;
     rejected: per map, the candidates ranked above the one that passed every test (0: the best passed, or no tests);
-    vetoed: per map, candidate tests ran and no candidate of a non-empty region passed."""
+    vetoed: per map, candidate tests ran and no candidate of a non-empty region passed; proposed: per map, the names
+    of the rules whose proposals were asked when the chosen candidate is one of those (empty otherwise)."""
 
     q: dict[str, np.ndarray]
     shown: dict[str, np.ndarray]
@@ -42,18 +43,21 @@ class RuleOutcome:
     note: str
     rejected: dict[str, int]
     vetoed: dict[str, bool]
+    proposed: dict[str, tuple[str, ...]]
 
 
 @dataclass(frozen=True)
 class MapOutcome:
-    """One map after its rules (RulePipeline.apply): q, shown, rejected and vetoed as in RuleOutcome; vetoers: the
-    map's rules with a candidate test that ask for a push when it passes no candidate (Rule.vetoes_grasp)."""
+    """One map after its rules (RulePipeline.apply): q, shown, rejected, vetoed and proposed as in RuleOutcome;
+    vetoers: the map's rules with a candidate test that ask for a push when it passes no candidate
+    (Rule.vetoes_grasp)."""
 
     q: np.ndarray
     shown: np.ndarray
     rejected: int
     vetoed: bool
     vetoers: list[Rule]
+    proposed: tuple[str, ...] = ()
 
 
 def _any(rotation: int, row: int, col: int) -> bool:
@@ -129,7 +133,8 @@ class RulePipeline:
         veto = grasp.vetoers[0] if grasp.vetoed and grasp.vetoers else None
         return RuleOutcome({p: m.q for p, m in maps.items()}, {p: m.shown for p, m in maps.items()},
                            veto is not None, veto.veto_note if veto is not None else "",
-                           {p: m.rejected for p, m in maps.items()}, {p: m.vetoed for p, m in maps.items()})
+                           {p: m.rejected for p, m in maps.items()}, {p: m.vetoed for p, m in maps.items()},
+                           {p: m.proposed for p, m in maps.items()})
 
     def _apply_map(self, primitive: str, q: np.ndarray, ctx: RuleContext, timer: RuleTimer) -> MapOutcome:
         """One map through its rules: the adjusts that shape the shown map (filters), then the others, each in list
@@ -162,13 +167,15 @@ class RulePipeline:
             return ranked, rank
 
         ranked, rank = first_passing(lambda test: rerank(q, region, test, top_k))
+        proposed: tuple[str, ...] = ()
         if rank is None:
-            offered = [p for r in rules if (p := r.proposals(ctx)) is not None and len(p[0])]
+            offered = [(r.rule.name, p) for r in rules if (p := r.proposals(ctx)) is not None and len(p[0])]
             if offered:
-                candidates = tuple(np.concatenate([p[i] for p in offered]) for i in range(3))
+                candidates = tuple(np.concatenate([p[i] for _, p in offered]) for i in range(3))
                 ranked, rank = first_passing(lambda test: rerank_among(q, region, test, candidates))
+                proposed = tuple(name for name, _ in offered) if rank is not None else ()
         vetoed = rank is None and bool((region[None] & np.isfinite(ranked)).any())
-        return MapOutcome(ranked, shown, rank or 0, vetoed, [r for r, _ in hard if r.vetoes_grasp])
+        return MapOutcome(ranked, shown, rank or 0, vetoed, [r for r, _ in hard if r.vetoes_grasp], proposed)
 
     def forced_grasp(self, q: np.ndarray, ctx: RuleContext) -> tuple[np.ndarray, int | None]:
         """(Q_g re-ranked, the fallback level that passed) for a grasp the push budget forces while no candidate of
