@@ -77,6 +77,28 @@ def test_with_an_inward_distance_a_target_beyond_the_margin_must_be_carried_back
         EdgeGuard.from_arg(GEO, "-0.01")
 
 
+def test_with_a_near_distance_a_target_near_a_side_must_be_carried_back_inwards():
+    # the target at y -0.17 lies 5.4 cm from the side, inside the 3 cm margin but within 8 cm of the side: with
+    # "0.01:0.08" a push along the side that meets it no longer passes, one carrying it 1 cm or more back in does,
+    # and so do a push that misses it and any push of a target farther from the sides
+    guard = EdgeGuard.from_arg(GEO, "0.01:0.08")
+    assert guard.spec() == "edge_guard:0.01:0.08" and EdgeGuard.from_arg(GEO, "0.02").near == 0.0
+    hm, target = _target_at(0.0, -0.17)
+    along = (PLUS_X, *_cell(-0.03, -0.17))
+    q = _q(along, (PLUS_Y, *_cell(0.0, -0.19)))
+    np.testing.assert_array_equal(apply_rule(EdgeGuard(GEO), q, hm, target, np.ones((H, W), bool))[0], q)
+    out, res = apply_rule(guard, q, hm, target, np.ones((H, W), bool))
+    assert out[along] == -np.inf and res.rejected["push"] >= 1
+    for kept in ((PLUS_Y, *_cell(0.0, -0.19)), (MINUS_Y, *_cell(0.06, -0.12))):  # inwards; missing the target
+        q = _q(kept, (PLUS_X, 0, 0))
+        np.testing.assert_array_equal(apply_rule(guard, q, hm, target, np.ones((H, W), bool))[0], q)
+    hm, target = _target_at(0.0, -0.1)  # 12.4 cm from the side
+    q = _q((PLUS_X, *_cell(-0.03, -0.1)), (PLUS_Y, 0, 0))
+    np.testing.assert_array_equal(apply_rule(guard, q, hm, target, np.ones((H, W), bool))[0], q)
+    with pytest.raises(ValueError, match="near distance must be >= 0"):
+        EdgeGuard.from_arg(GEO, "0.01:-0.08")
+
+
 def _with_block(hm: Heightmap, x0: float, x1: float, y0: float, y1: float) -> Heightmap:
     """`hm` with a 3 cm high block over [x0, x1] x [y0, y1] m added."""
     height = hm.height.copy()

@@ -15,8 +15,11 @@ met at the nearest one, and the cluster, target included, is carried the rest of
 is refused when the target's predicted centre ends outside the workspace shrunk by `margin_m` and farther outside
 it than now; and, when the target already lies beyond the margin and the push meets it, unless the push brings it
 back by at least `inward_m` (along the edge, a pushed target turns and rolls and leaves: the rule's argument, in
-metres, default INWARD_M; "edge_guard:0" allows such pushes). Pushes back inwards and pushes that miss the cluster
-stay allowed. As the test-time
+metres, default INWARD_M; "edge_guard:0" allows such pushes). Within `near_m` of a side (the rule's second argument,
+"edge_guard:INWARD:NEAR", default NEAR_M; 0: off) the same holds for the workspace shrunk by `near_m`: a push that
+meets the target's cluster while its centre lies that close to a side must carry the centre back in by `inward_m`
+(a lying mug or a toy levered along the edge rolls out, household-10 seed 1,000,098; 0 < near_m <= margin_m adds
+nothing). Pushes back inwards and pushes that miss the cluster stay allowed. As the test-time
 rule "edge_guard" (pg_policy.decision.rules.rule) it is a candidate test on Q_p while the target is visible: the
 pipeline re-ranks Q_p's best cells of the push region by it and every other push rule together. A test-time
 deviation from the paper (docs/ARCHITECTURE.md).
@@ -37,6 +40,7 @@ MARGIN_M = 0.03  # the predicted target centre should stay this far inside the w
 OCCUPIED_M = OBJECT_HEIGHT_M  # cells higher than this hold an object (pg_core.heightmap; the heuristic's `occupied`)
 GAP_CELLS = 4  # objects this many cells (8 mm) apart or closer count as touching: the pusher closes such gaps
 INWARD_M = 0.01  # a push that meets a target already beyond the margin must carry it back in by this much (m)
+NEAR_M = 0.0  # a push that meets a target this close to a side (m) must carry it back in by inward_m (0: off)
 
 
 class EdgeGuard(Rule):
@@ -49,13 +53,17 @@ class EdgeGuard(Rule):
     primitive = "push"
 
     def __init__(self, geometry: Geometry, margin_m: float = MARGIN_M, top_k: int = TOP_K,
-                 occupied_m: float = OCCUPIED_M, gap_cells: int = GAP_CELLS, inward_m: float = INWARD_M) -> None:
-        if margin_m < 0 or top_k < 1 or gap_cells < 0 or inward_m < 0:
-            raise ValueError(f"edge guard needs margin_m, inward_m >= 0, top_k >= 1 and gap_cells >= 0, got "
-                             f"{margin_m}, {inward_m}, {top_k}, {gap_cells}")
+                 occupied_m: float = OCCUPIED_M, gap_cells: int = GAP_CELLS, inward_m: float = INWARD_M,
+                 near_m: float = NEAR_M) -> None:
+        if margin_m < 0 or top_k < 1 or gap_cells < 0 or inward_m < 0 or near_m < 0:
+            raise ValueError(f"edge guard needs margin_m, inward_m, near_m >= 0, top_k >= 1 and gap_cells >= 0, got "
+                             f"{margin_m}, {inward_m}, {near_m}, {top_k}, {gap_cells}")
         ws = geometry.workspace
         self.lo = np.array([ws.x[0], ws.y[0]]) + margin_m
         self.hi = np.array([ws.x[1], ws.y[1]]) - margin_m
+        self.near = near_m
+        self.near_lo = np.array([ws.x[0], ws.y[0]]) + near_m
+        self.near_hi = np.array([ws.x[1], ws.y[1]]) - near_m
         self.length = geometry.primitives.push_length
         self.half_width = geometry.gripper.finger_size[1] / 2
         self.rotations = geometry.heightmap.rotations
@@ -64,14 +72,22 @@ class EdgeGuard(Rule):
 
     @classmethod
     def from_arg(cls, geometry: Geometry, arg: str | None) -> Rule:
-        return cls(geometry, inward_m=INWARD_M if arg is None else parse_metres(cls.name, arg, "inward distance"))
+        """"INWARD" or "INWARD:NEAR" (metres); None: the defaults. ValueError naming the distance otherwise."""
+        if arg is None:
+            return cls(geometry)
+        inward, _, near = arg.partition(":")
+        return cls(geometry, inward_m=parse_metres(cls.name, inward, "inward distance"),
+                   near_m=parse_metres(cls.name, near, "near distance") if near else NEAR_M)
 
     def arg(self) -> str | None:
+        if self.near != NEAR_M:
+            return f"{self.inward:g}:{self.near:g}"
         return None if self.inward == INWARD_M else f"{self.inward:g}"
 
-    def outside(self, xy: np.ndarray) -> float:
-        """How far (m) the point `xy` lies outside the shrunk workspace (0 inside)."""
-        return float(np.linalg.norm(np.maximum(np.maximum(self.lo - xy, xy - self.hi), 0.0)))
+    def outside(self, xy: np.ndarray, near: bool = False) -> float:
+        """How far (m) the point `xy` lies outside the workspace shrunk by the margin (near: by near_m; 0 inside)."""
+        lo, hi = (self.near_lo, self.near_hi) if near else (self.lo, self.hi)
+        return float(np.linalg.norm(np.maximum(np.maximum(lo - xy, xy - hi), 0.0)))
 
     def cluster(self, height: np.ndarray, target: np.ndarray) -> np.ndarray:
         """(H, W) bool: the target's cells and the occupied cells of the (H, W) `height` map (m) joined to them
@@ -99,6 +115,9 @@ class EdgeGuard(Rule):
         centre = t_xy.mean(axis=0)
         carry = self.carried(t_xy if c_xy is None else c_xy, start, yaw)
         after = centre + carry * np.array([math.cos(yaw), math.sin(yaw)])
+        if carry > 0.0 and self.near > 0.0 and (near_now := self.outside(centre, near=True)) > 0.0:
+            if self.outside(after, near=True) > near_now - self.inward:
+                return False
         out, now = self.outside(after), self.outside(centre)
         if out <= 0.0:
             return True
