@@ -72,12 +72,12 @@ pg train --stage alternate --backbone "$backbone" --device "$device" --init "$ou
   --scene dense-8 --iterations 5000 --minutes "$train_min" --lr 1e-4 --seed 21 --grasp-threshold 0.7 \
   --push-budget 3 --guided-exploration 0.7 --epsilon-start 0.3 --epsilon-end 0.1 --epsilon-decay 300 \
   --checkpoint-every 25 2>&1 | tr '\r' '\n' | grep -v "it/s, \|s/it, " | tail -5
-pg export --run "$out" --stage alternate --out "$out/models_final" --grasp-threshold 0.7 --push-budget 3 --grasp-filter min3 --low-parts on --grasp-check jaw-walls --edge-guard on --push-landing on
+pg export --run "$out" --stage alternate --out "$out/models_final" --grasp-threshold 0.7 --push-budget 3 --grasp-filter min3 --low-parts on --grasp-check jaw-walls --grasp-search on --edge-guard on --push-landing on
 step "trained $(tail -n +2 "$out/alternate/log.csv" | wc -l) iterations; evaluating them ($workers workers)"
 "$repo/scripts/eval_protocol.sh" "$out/models_final" "$out/eval_final" --workers "$workers" --device "$device" \
   --no-progress >"$out/eval_final.log" 2>&1
 if [ "${PG_EVAL_WARM:-0}" = 1 ]; then
-  pg export --run "$out" --stage offline --out "$out/models_warm" --grasp-threshold 0.7 --push-budget 3 --grasp-filter min3 --low-parts on --grasp-check jaw-walls --edge-guard on --push-landing on
+  pg export --run "$out" --stage offline --out "$out/models_warm" --grasp-threshold 0.7 --push-budget 3 --grasp-filter min3 --low-parts on --grasp-check jaw-walls --grasp-search on --edge-guard on --push-landing on
   step "evaluating the warm start ($workers workers)"
   "$repo/scripts/eval_protocol.sh" "$out/models_warm" "$out/eval_warm" --workers "$workers" --device "$device" \
     --no-progress >"$out/eval_warm.log" 2>&1

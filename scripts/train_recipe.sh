@@ -95,5 +95,5 @@ if [ "$done_its" -lt "$os8_iters" ]; then
   exit 3
 fi
 # the test-time grasp filter and grasp check of the shipped model (docs/ARCHITECTURE.md) go into the metadata
-"$py" -m pg_policy.cli.main export --run "$out/os8" --out "$export_dir" --grasp-filter min3 --low-parts on --grasp-check jaw-walls --edge-guard on --push-landing on
+"$py" -m pg_policy.cli.main export --run "$out/os8" --out "$export_dir" --grasp-filter min3 --low-parts on --grasp-check jaw-walls --grasp-search on --edge-guard on --push-landing on
 echo "[recipe] exported $export_dir"

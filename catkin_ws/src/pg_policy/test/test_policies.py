@@ -252,7 +252,7 @@ def test_the_shipped_model_brings_its_test_time_rules():
     # docs/RESULTS.md reports `lite` with these; `make train` exports them (scripts/train_recipe.sh)
     lite = make_policy("lite")
     assert lite.rules.specs() == ["grasp_filter:min3", "failed_grasps:0.01", "low_parts", "grasp_check:jaw-walls",
-                                  "push_landing", "edge_guard"]
+                                  "grasp_search", "push_landing", "edge_guard"]
     assert lite.threshold == pytest.approx(0.7) and lite.push_budget == 3
     assert "grasp_check" not in make_policy("lite", PolicyOptions(overrides={"grasp_check": "none"})).rules
 
