@@ -18,8 +18,9 @@ back by at least `inward_m` (along the edge, a pushed target turns and rolls and
 metres, default INWARD_M; "edge_guard:0" allows such pushes). Within `near_m` of a side (the rule's second argument,
 "edge_guard:INWARD:NEAR", default NEAR_M; 0: off) the same holds for the workspace shrunk by `near_m`: a push that
 meets the target's cluster while its centre lies that close to a side must carry the centre back in by `inward_m`
-(a lying mug or a toy levered along the edge rolls out, household-10 seed 1,000,098; 0 < near_m <= margin_m adds
-nothing). Pushes back inwards and pushes that miss the cluster stay allowed. As the test-time
+(scissors pushed along the edge by their tip swing out, household-10 seed 1,000,019; 0 < near_m <= margin_m adds
+nothing; off in the shipped list: on the training seeds 0.08 m completes no more trials, docs/RESULTS.md "The grasp
+search shipped"). Pushes back inwards and pushes that miss the cluster stay allowed. As the test-time
 rule "edge_guard" (pg_policy.decision.rules.rule) it is a candidate test on Q_p while the target is visible: the
 pipeline re-ranks Q_p's best cells of the push region by it and every other push rule together. A test-time
 deviation from the paper (docs/ARCHITECTURE.md).
