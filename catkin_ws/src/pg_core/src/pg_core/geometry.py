@@ -111,9 +111,13 @@ class GripperSpec:
     finger_force: float
     finger_speed: float
     closed_threshold: float
-    # Lateral friction coefficient of the finger pads (simulation: the fingers' URDF <contact>; PyBullet multiplies it
-    # with an object's own). Absent: 0.5, PyBullet's default for a link without one.
+    # Lateral friction coefficient of the finger pads (simulation: the fingers' URDF <contact>, and set on the finger
+    # links when the robot loads; PyBullet multiplies it with an object's own). Absent: 0.5, PyBullet's default.
     pad_friction: float = 0.5
+    # Rolling friction of the finger pads (m; simulation): how far a pad's contact resists turning about an axis in
+    # the contact plane (a plate hanging from a pinched rim), as a rubber pad's contact patch does; PyBullet combines
+    # it with the object's friction. Absent or 0: point contacts, no such resistance.
+    pad_rolling_friction: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -33,7 +33,9 @@ class RobotIndex:
 
 
 def load_robot(client: int, geometry: Geometry) -> RobotIndex:
-    """Load the shared URDF at the world origin (fixed base) and index it; raises FileNotFoundError/KeyError."""
+    """Load the shared URDF at the world origin (fixed base) and index it, the finger pads given the configuration's
+    friction (`gripper.pad_friction`, `pad_rolling_friction`: a geometry config copy reaches the simulated pads
+    without a regenerated URDF); raises FileNotFoundError/KeyError."""
     urdf = geometry.robot.urdf
     if not urdf.is_file():
         raise FileNotFoundError(f"robot URDF not found: {urdf} "
@@ -44,7 +46,13 @@ def load_robot(client: int, geometry: Geometry) -> RobotIndex:
         flags=p.URDF_USE_INERTIA_FROM_FILE | p.URDF_USE_SELF_COLLISION_EXCLUDE_PARENT,
         physicsClientId=client,
     )
-    return index_robot(client, body, geometry)
+    index = index_robot(client, body, geometry)
+    grip = geometry.gripper
+    for arm in index.arms.values():
+        for finger in arm.fingers:  # a joint's child link has the joint's index
+            p.changeDynamics(body, finger, lateralFriction=grip.pad_friction,
+                             rollingFriction=grip.pad_rolling_friction, physicsClientId=client)
+    return index
 
 
 def index_robot(client: int, body: int, geometry: Geometry) -> RobotIndex:

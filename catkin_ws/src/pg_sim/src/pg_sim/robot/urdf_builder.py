@@ -126,10 +126,10 @@ def _inertial_xml(com: Sequence[float], rpy: Sequence[float], mass: float, momen
 
 
 def _link(name: str, shapes: Sequence[Shape] = (), mass: float | None = None,
-          friction: float | None = None) -> list[str]:
+          friction: float | None = None, rolling_friction: float = 0.0) -> list[str]:
     """A link with visual+collision per shape; ``mass`` None -> a frame-only link with a negligible inertial;
     ``friction``: a ``<contact>`` lateral friction coefficient (PyBullet's URDF extension; others ignore it), None
-    for none (PyBullet's default, 0.5)."""
+    for none (PyBullet's default, 0.5), with ``rolling_friction`` (m) when it is above 0."""
     out = [f'  <link name="{name}">']
     if mass is None:
         out += _inertial_xml((0, 0, 0), (0, 0, 0), FRAME_MASS, (FRAME_INERTIA,) * 3)
@@ -153,7 +153,8 @@ def _link(name: str, shapes: Sequence[Shape] = (), mass: float | None = None,
             "    </collision>",
         ]
     if friction is not None:
-        out += ["    <contact>", f'      <lateral_friction value="{_f(friction)}"/>', "    </contact>"]
+        rolling = [f'      <rolling_friction value="{_f(rolling_friction)}"/>'] if rolling_friction > 0 else []
+        out += ["    <contact>", f'      <lateral_friction value="{_f(friction)}"/>', *rolling, "    </contact>"]
     out.append("  </link>")
     return out
 
@@ -334,7 +335,8 @@ def build_urdf(geometry: Any) -> str:
         half = 0.5 * grip.max_opening
         flim = (0.0, half, grip.finger_force, grip.finger_speed)
         for k, sign in ((1, 1.0), (2, -1.0)):
-            out += _link(f"{g}finger{k}_link", gshapes[f"finger{k}"], grip.finger_mass, grip.pad_friction)
+            out += _link(f"{g}finger{k}_link", gshapes[f"finger{k}"], grip.finger_mass, grip.pad_friction,
+                         grip.pad_rolling_friction)
             out += _joint(
                 f"{g}finger{k}_joint", "prismatic", g + "palm_link", f"{g}finger{k}_link", axis=(sign, 0, 0), limit=flim
             )
