@@ -333,3 +333,27 @@ def test_rpy_round_trip():
         rpy = rng.uniform(-math.pi, math.pi, 3) * np.array([1, 0.5, 1])
         np.testing.assert_allclose(rpy_matrix(matrix_rpy(rpy_matrix(rpy))), rpy_matrix(rpy), atol=1e-12)
         np.testing.assert_allclose(rpy_matrix(rpy), Rotation.from_euler("xyz", rpy).as_matrix(), atol=1e-12)
+
+
+def test_the_configured_pad_friction_reaches_the_loaded_fingers(urdf_geometry):
+    # a geometry config copy changes the simulated pads without a regenerated URDF; the URDF carries a rolling
+    # friction only when one is configured
+    import dataclasses
+
+    from pg_sim.robot.robot_model import load_robot
+
+    grip = dataclasses.replace(urdf_geometry.gripper, pad_friction=1.7, pad_rolling_friction=0.05)
+    geometry = dataclasses.replace(urdf_geometry, gripper=grip)
+    cid = p.connect(p.DIRECT)
+    try:
+        index = load_robot(cid, geometry)
+        for arm in index.arms.values():
+            for finger in arm.fingers:
+                info = p.getDynamicsInfo(index.body, finger, physicsClientId=cid)
+                assert (info[1], info[6]) == pytest.approx((1.7, 0.05))  # lateral, rolling friction
+            palm = p.getDynamicsInfo(index.body, arm.palm, physicsClientId=cid)
+            assert palm[6] == pytest.approx(0.0)
+    finally:
+        p.disconnect(cid)
+    assert "<rolling_friction" not in build_urdf(urdf_geometry)
+    assert build_urdf(geometry).count('<rolling_friction value="0.05"/>') == 4  # two fingers per arm
