@@ -236,8 +236,8 @@ class LearnedPolicy(PolicyBase):
         d = decide(q_grasp, outcome.q["push"], target, hm, self.prims, decision_threshold(force, self.threshold),
                    push_mask=ctx.push_region, grasp_mask=ctx.grasp_region)  # the regions the rules saw
         if d.primitive == "grasp" and outcome.proposed["grasp"] and not self.last_note:
-            self.last_note = f"no grasp among Q_g's best passes the checks: grasp proposed by " \
-                             f"{', '.join(outcome.proposed['grasp'])}"
+            self.last_note = ("no grasp among Q_g's best passes the checks: grasp proposed by "
+                              + ", ".join(outcome.proposed["grasp"]))
         if not visible:  # e.g. "target hidden: searching where last seen (x, y): push"
             self.last_note = f"{goal.note}: {d.primitive}" + (f" ({self.last_note})" if self.last_note else "")
         self.pushes_in_row = self.pushes_in_row + 1 if d.primitive == "push" else 0
