@@ -229,10 +229,10 @@ class LearnedPolicy(PolicyBase):
         q_grasp = outcome.q["grasp"]
         if (spent or refused) and self.config.forced_grasp and outcome.vetoed["grasp"]:
             q_grasp, level = self.rules.forced_grasp(q_grasp, ctx)
-            if level is not None:
-                why = ("every push is refused by the push rules" if refused else
-                       "target inside a vessel" if enclosed else "push budget spent")
-                self.last_note = f"{why}: grasp passing fallback test {level + 1} of the grasp rules"
+            why = ("every push is refused by the push rules" if refused else
+                   "target inside a vessel" if enclosed else "push budget spent")
+            self.last_note = (f"{why}: grasp passing fallback test {level + 1} of the grasp rules" if level is not None
+                              else f"{why}: no grasp passes the grasp rules' fallback tests: Q_g's best")
         d = decide(q_grasp, outcome.q["push"], target, hm, self.prims, decision_threshold(force, self.threshold),
                    push_mask=ctx.push_region, grasp_mask=ctx.grasp_region)  # the regions the rules saw
         if d.primitive == "grasp" and outcome.proposed["grasp"] and not self.last_note:
