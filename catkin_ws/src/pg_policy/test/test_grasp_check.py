@@ -163,39 +163,6 @@ def test_a_forced_grasp_without_a_fitting_candidate_keeps_the_map():
     assert level is None and out is q
 
 
-def _brimmed_plate() -> tuple[Heightmap, np.ndarray]:
-    """A 24 cm plate (wider than the open jaw) whose flat 2 cm high brim covers it to the edge: no rim pit."""
-    rr, cc = np.mgrid[0:H, 0:W]
-    height = np.where(np.hypot(rr - C, cc - C) * GEO.heightmap.resolution <= 0.12, 0.02, 0.0).astype(np.float32)
-    hm = Heightmap(np.full((H, W, 3), 90, np.uint8), height, np.ones((H, W), bool), GEO.heightmap.resolution,
-                   GEO.workspace.bounds)
-    return hm, height > 0
-
-
-def test_a_forced_grasp_of_a_target_wider_than_the_jaw_crosses_its_edge():
-    """No grasp of the plate passes and none fits between the pads; the forced grasp goes to the best candidate
-    within half the open jaw of the edge whose closing line crosses the edge near its normal (the third fallback),
-    not to Q_g's argmax, which closes along the edge."""
-    from pg_policy.decision.rules.grasp_check import outline_normals
-
-    hm, target = _brimmed_plate()
-    edge = C + 55  # 1 cm inside the +x edge (60 cells from the centre)
-    q = np.zeros((16, H, W))
-    q[ALONG_Y, C, edge] = 1.0  # the learned favourite: closing along the edge
-    q[ALONG_X, C, edge] = 0.5
-    q[ALONG_X, C, C] = 0.8  # the middle: 12 cm from any edge
-    pipeline = RulePipeline([JawGraspCheck.from_arg(GEO, "jaw-walls")])
-    ctx = context(hm, target)
-    res = pipeline.apply({"grasp": q, "push": np.zeros_like(q)}, ctx)
-    assert res.vetoed["grasp"]
-    out, level = pipeline.forced_grasp(res.q["grasp"], ctx)
-    assert level == 2
-    assert np.unravel_index(np.argmax(out), out.shape) == (ALONG_X, C, edge) and out.max() == 1.0
-    dist, normal = outline_normals(target)
-    assert dist[C, edge] == pytest.approx(5, abs=1) and normal[C, edge] == pytest.approx([-1, 0], abs=0.05)
-    assert normal[C - 55, C] == pytest.approx([0, 1], abs=0.05)  # the -y edge (rows along y): inward is +y
-
-
 def _bowl(neighbour: bool = False) -> tuple[Heightmap, np.ndarray]:
     """A 16 cm bowl (wider than the open jaw): a 6 mm thick, 5 cm high wall around a floor 5 mm above the table;
     `neighbour`: a 4 cm high box just outside its +x wall."""

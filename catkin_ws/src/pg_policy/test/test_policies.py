@@ -338,6 +338,17 @@ def test_the_strict_check_pushes_when_no_grasp_passes_until_the_push_budget_is_s
     assert plain.act(obs).primitive == "grasp" and plain.last_note == ""
 
 
+def test_a_forced_grasp_that_no_fallback_passes_is_noted(model_dir):
+    # a 10 x 10 cm target: wider than the open jaw both ways, and nothing like a rim or a raised part; once the
+    # push budget (1) is spent the grasp goes to Q_g's argmax, and the decision record says why
+    obs = _scene([(0.0, 0.0, 0.10, 0.10, "green")])
+    strict = learned(model_dir, {"grasp_threshold": -1e9, "push_budget": 1, "grasp_check": "jaw-strict"})
+    strict.reset(0)
+    assert strict.act(obs).primitive == "push" and "jaw check" in strict.last_note
+    assert strict.act(obs).primitive == "grasp"
+    assert strict.last_note == "push budget spent: no grasp passes the grasp rules' fallback tests: Q_g's best"
+
+
 
 def test_a_target_of_few_cells_is_the_goal_from_min_target_cells(model_dir):
     # a green sliver of 4 x 4 cells beside a blue block: below the default 25 cells the policy looks at every object

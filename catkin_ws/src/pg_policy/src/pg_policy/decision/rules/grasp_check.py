@@ -69,7 +69,6 @@ WALL_TOL_M = 0.002  # the wall must stand this far above the fingertips
 RIM_MAX_ANGLE_DEG = 33.75  # a rim grasp's closing line within this of the wall's normal (between 1 and 2 rotations)
 WALL_BLUR_CELLS = 1.5  # the heightmap is smoothed by a Gaussian of this sigma (cells) for the wall's normal
 MIN_WALL_SLOPE = 0.1  # a smoothed slope (m/m) under this gives the wall no direction (the angle test is skipped)
-OUTLINE_BLUR_CELLS = 1.5  # the target's distance map is smoothed by a Gaussian of this sigma (cells) for its normals
 
 
 def wall_normal(height: np.ndarray, cell: tuple[int, int], resolution: float) -> np.ndarray | None:
@@ -86,17 +85,6 @@ def wall_normal(height: np.ndarray, cell: tuple[int, int], resolution: float) ->
     g = np.array([float(gx[r - r0, c - c0]), float(gy[r - r0, c - c0])])
     norm = float(np.linalg.norm(g))
     return None if norm / resolution < MIN_WALL_SLOPE else g / norm
-
-
-def outline_normals(target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per cell of the (H, W) bool `target` mask: the distance to its outline (cells; 0 off the mask; the map's
-    border counts as outline) and the unit (x, y) direction in which that distance grows, the inward normal of the
-    nearest outline ((H, W, 2) float; rows along y, columns along x; zero where the smoothed distance is flat)."""
-    dist = cv2.distanceTransform(np.pad(target, 1).astype(np.uint8), cv2.DIST_L2, 5)[1:-1, 1:-1]
-    gy, gx = np.gradient(cv2.GaussianBlur(dist, (0, 0), OUTLINE_BLUR_CELLS, borderType=cv2.BORDER_REPLICATE))
-    g = np.stack([gx, gy], axis=-1)
-    norm = np.linalg.norm(g, axis=-1, keepdims=True)
-    return dist, np.where(norm >= 0.1, g / np.maximum(norm, 1e-9), 0.0)
 
 
 class JawGraspCheck(Rule):
@@ -254,31 +242,11 @@ class JawGraspCheck(Rule):
     def fallback_tests(self, ctx: RuleContext) -> list[CandidateTest]:
         """For a grasp the push budget forces when no candidate passes: first the footprint test without walls,
         then the target fitting between the pads on the pad-centred line with neighbours allowed in a finger's
-        sweep, then a grasp across the target's edge (`across_edge`; Q_g's argmax only when none passes)."""
+        sweep (Q_g's argmax only when neither passes)."""
         if not ctx.visible or not ctx.target.any():
             return []
         hm, target = ctx.heightmap, ctx.target
         context = self.jaw.around(hm, target)
         return [BatchTest(lambda r, row, col: self.passes_many(hm, target, r, row, col, context, walls=False)),
                 BatchTest(lambda r, row, col: self.passes_many(hm, target, r, row, col, context, walls=False,
-                                                               clearance=False)),
-                self.across_edge(hm, target)]
-
-    def across_edge(self, hm: Heightmap, target: np.ndarray) -> BatchTest:
-        """The test of a grasp across the target's edge: the cell lies on the target within half the open jaw of
-        its outline, and the closing line crosses the nearest outline within RIM_MAX_ANGLE_DEG of its normal
-        (`outline_normals`), so the outer finger comes down beyond the edge and the pads meet it squarely. For a
-        target wider than the jaw (a plate with a flat brim, whose rim no rim grasp fits): of 638 grasps of plate
-        targets in the household records, 67 of the 212 closing within 11 degrees of the plate's radius lifted it
-        and 5 of the 225 closing 45 degrees or more off it (docs/RESULTS.md, "Plates")."""
-        dist, normal = outline_normals(target)
-        reach = self.jaw.half_open / hm.resolution
-        cos_max = math.cos(math.radians(RIM_MAX_ANGLE_DEG))
-
-        def many(rots: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
-            yaws = rotation_yaw(np.asarray(rots), self.jaw.rotations)
-            n = normal[rows, cols]
-            across = np.abs(np.cos(yaws) * n[:, 0] + np.sin(yaws) * n[:, 1]) >= cos_max
-            return target[rows, cols] & (dist[rows, cols] <= reach) & across
-
-        return BatchTest(many)
+                                                               clearance=False))]
