@@ -32,8 +32,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--target", default=None, help="target colour (default: the scene's)")
     p.add_argument("--out", type=Path, required=True, help="output PNG (with --steps: the stem of the PNG sequence)")
     p.add_argument("--steps", type=int, default=0,
-                   help="execute up to N decisions in the simulator (stops once the target is grasped), one PNG "
-                        "each plus the scene after; default 0: draw the first decision, execute nothing")
+                   help="execute up to N decisions in the simulator under `pushgrasp eval`'s episode protocol (the "
+                        "search for a hidden target; stops once the target is grasped or the episode ends, e.g. "
+                        "target_lost), one PNG each plus the scene after; default 0: draw the first decision, "
+                        "execute nothing")
     add_sensor_argument(p)
     options.add_arguments(p)  # the declared policy options; the grasp panel shows Q_g after the filter rules
     p.set_defaults(run=_run)
@@ -124,18 +126,32 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _rollout(args: argparse.Namespace, env, policy, obs, grasp_filter: object = None) -> int:
-    """Decide, draw, execute, up to args.steps times; exit status 0 once the target is grasped, else 1."""
+    """Decide, draw, execute, up to args.steps times, under the episode protocol of `pushgrasp eval` (the target
+    memory the policy searches a hidden target with, refused futile pushes, the terminations: a trial's decisions
+    are the evaluation's); exit status 0 once the target is grasped, else 1."""
+    from pg_learning.evaluation.runner import observed, refused_step
+    from pg_policy.perception.target_memory import search_limit
+    from pg_policy.target_loop.episode import Episode, Limits, Outcome
+
     stem = args.out.with_suffix("")
     stem.parent.mkdir(parents=True, exist_ok=True)
+    ep = Episode(Limits(), search_limit=search_limit(False))
+    obs = observed(ep, env, obs)
     for k in range(1, args.steps + 1):
         d = policy.act(obs)
         title = f"step {k}: " + _title(args.scene, obs, d)
         draw(Path(f"{stem}_{k:02d}.png"), obs, d, policy.q_maps(), title, grasp_filter)
-        res = env.step(d.primitive, d.x, d.y, d.z, d.yaw)
+        veto = ep.vet(d)
+        res = refused_step(d.primitive, veto) if veto is not None else env.step(d.primitive, d.x, d.y, d.z, d.yaw)
+        ep.record(d, Outcome(refused=bool(res.refused), target_grasped=bool(res.target_grasped),
+                             message=str(res.message)))
         print(f"{title} -> {res.message}{' (target grasped)' if res.target_grasped else ''}")
         nxt = env.observe()
-        obs = type(nxt)(nxt.heightmap, args.target, nxt.truth_target, nxt.sim_time) if args.target else nxt
-        if res.target_grasped:
+        obs = observed(ep, env, type(nxt)(nxt.heightmap, args.target, nxt.truth_target, nxt.sim_time)
+                       if args.target else nxt)
+        if ep.over():
+            if not ep.completed:
+                print(f"episode over: {ep.termination}: {ep.why}")
             break
     after = draw(Path(f"{stem}_after.png"), obs, None, {}, f"after {k} action(s): target "
                  f"{'grasped' if res.target_grasped else 'not grasped'}")

@@ -126,7 +126,7 @@ def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: L
     try:
         policy.reset(seed)
         stage = "env.reset"
-        obs = _observed(ep, env, env.reset(scene, seed), target)
+        obs = observed(ep, env, env.reset(scene, seed), target)
         while not ep.over():
             stage = "policy.act"
             t_act = time.perf_counter()
@@ -135,7 +135,7 @@ def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: L
             pose = (float(decision.x), float(decision.y), float(decision.z), float(decision.yaw))
             stage = "env.step"
             veto = ep.vet(decision)
-            result = _refused(decision.primitive, veto) if veto is not None else env.step(decision.primitive, *pose)
+            result = refused_step(decision.primitive, veto) if veto is not None else env.step(decision.primitive, *pose)
             ep.record(decision, Outcome(refused=bool(result.refused), target_grasped=bool(result.target_grasped),
                                         message=str(result.message)))
             rec.sim_s += float(result.sim_time)
@@ -146,7 +146,7 @@ def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: L
                 stage = "env.observe"
                 if target is not None:
                     target.acted(decision, result)
-                obs = _observed(ep, env, env.observe(), target)
+                obs = observed(ep, env, env.observe(), target)
     except Exception as exc:  # DESIGN.md section 8: the trial fails with its reason, the run goes on
         mark_error(rec, exc, stage)
         ep.stop(ERROR, f"error at {stage}: {rec.error}")
@@ -158,7 +158,7 @@ def run_trial(env: EvalEnv, policy: EvalPolicy, scene: Any, seed: int, limits: L
     return rec
 
 
-def _refused(primitive: str, message: str) -> Any:
+def refused_step(primitive: str, message: str) -> Any:
     """The StepResult of a decision the episode refused (nothing moved). Imported here: the simulator's modules
     stay out of the processes that only read records (pushgrasp compare, bench on saved cases)."""
     from pg_learning.environment.sim_env import StepResult
@@ -166,7 +166,7 @@ def _refused(primitive: str, message: str) -> Any:
     return StepResult(primitive, False, True, False, False, None, message, 0.0)
 
 
-def _observed(ep: Episode, env: EvalEnv, obs: Any, target: TrialTarget | None = None) -> Any:
+def observed(ep: Episode, env: EvalEnv, obs: Any, target: TrialTarget | None = None) -> Any:
     """`obs` told to the episode (its target mask, and the simulator's ground truth when `env` has
     `target_outside()`), with the episode's target memory as `search` for the policy; unchanged when it has no
     heightmap. Without `target` the mask is the target colour's; with it, the tracked mask, which the policy gets
