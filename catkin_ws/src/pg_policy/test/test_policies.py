@@ -349,7 +349,6 @@ def test_a_forced_grasp_that_no_fallback_passes_is_noted(model_dir):
     assert strict.last_note == "push budget spent: no grasp passes the grasp rules' fallback tests: Q_g's best"
 
 
-
 def test_a_target_of_few_cells_is_the_goal_from_min_target_cells(model_dir):
     # a green sliver of 4 x 4 cells beside a blue block: below the default 25 cells the policy looks at every object
     # (goal-agnostic); with min_target_cells 5 it acts within the push region of the sliver (5 cm), never at the
