@@ -153,7 +153,8 @@ def _rollout(args: argparse.Namespace, env, policy, obs, grasp_filter: object = 
             if not ep.completed:
                 print(f"episode over: {ep.termination}: {ep.why}")
             break
-    after = draw(Path(f"{stem}_after.png"), obs, None, {}, f"after {k} action(s): target "
-                 f"{'grasped' if res.target_grasped else 'not grasped'}")
+    verdict = ("target grasped" if res.target_grasped
+               else f"{ep.termination}" if ep.termination else "target not grasped")
+    after = draw(Path(f"{stem}_after.png"), obs, None, {}, f"after {k} action(s): {verdict}")
     print(f"wrote {stem}_01.png .. {stem}_{k:02d}.png and {after}")
     return 0 if res.target_grasped else 1
