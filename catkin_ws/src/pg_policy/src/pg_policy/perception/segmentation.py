@@ -77,6 +77,7 @@ from scipy import ndimage
 from pg_core.heightmap import Heightmap
 from pg_policy.perception.colour_pieces import split_colours
 from pg_policy.perception.floors import join_floors
+from pg_policy.perception.hubs import join_hubs
 from pg_policy.perception.long_pieces import join_pieces
 
 DEPTH_EDGE_M = 0.006  # height bend (m) within a 3 x 3 neighbourhood that makes a depth edge (a 6 mm step)
@@ -226,7 +227,7 @@ def segment_objects(hm: Heightmap, lab: np.ndarray | None = None) -> np.ndarray:
     labels = np.where(objects & (flooded <= n), flooded, 0)
     labels = _renumber(_fill_holes(_adopt_orphans(labels, objects & (labels == 0), n), objects))
     weighted = lab * np.array([LIGHTNESS_WEIGHT, 1.0, 1.0], np.float32)
-    labels = _renumber(join_floors(labels, height, weighted, COLOUR_EDGE))
+    labels = _renumber(join_hubs(join_floors(labels, height, weighted, COLOUR_EDGE), height, weighted, COLOUR_EDGE))
     labels = _renumber(split_colours(labels, lab[..., 1:], colour, COLOUR_EDGE, MIN_OBJECT_CELLS))
     return _renumber(join_pieces(labels, np.asarray(hm.height, np.float32), np.asarray(hm.valid, bool), weighted,
                                  float(hm.resolution), COLOUR_EDGE))
