@@ -67,17 +67,6 @@ def test_one_object_with_thin_parts_stays_whole():
     assert np.array_equal(cut_at_neck(spoon, 60, 80), spoon)  # a click on the thin handle: nothing is cut
 
 
-def test_a_ring_of_gaps_inside_one_object_is_no_neck():
-    """A dish whose hub is parted from its body by unseen cells in a ring with a few bridges (the segment's holes):
-    the holes are inside the object, not its outline, so a click at the hub names the whole dish."""
-    dish = _disc((60, 60), 40)
-    gaps = _disc((60, 60), 16) & ~_disc((60, 60), 13)
-    gaps[:, 58:62] = False  # bridges across the ring
-    gaps[58:62, :] = False
-    segment = dish & ~gaps
-    assert np.array_equal(cut_at_neck(segment, 60, 60), segment)
-
-
 def test_pieces_of_one_segment_apart_from_each_other_stay_together():
     """A segment joined across a gap (a rod seen on both sides of an object lying across it) is not cut apart."""
     segment = _disc((40, 30), 14) | _disc((40, 90), 14)

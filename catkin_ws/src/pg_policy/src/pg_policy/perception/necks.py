@@ -4,9 +4,8 @@ contact share one segment of the heightmap, and its outline narrows where they m
 Contract. `cut_at_neck(segment, row, col)` takes an (H, W) bool segment (pg_policy.perception.segmentation) and the
 clicked cell (row, col) in it, and returns the (H, W) bool part of it that the click names:
 
-1. inside: the distance (cells) of every segment cell to the nearest cell outside it, the segment's holes filled
-   (unseen cells or a gap inside one object are no outline; OpenCV's exact L2 distance transform); the clicked
-   cell climbs to the top of its hill of that distance, its peak;
+1. inside: the distance (cells) of every segment cell to the nearest cell outside it (OpenCV's exact L2 distance
+   transform); the clicked cell climbs to the top of its hill of that distance, its peak;
 2. another peak of the segment is a touching neighbour when it is object-sized (a half-width of at least
    MIN_PEAK_CELLS: a block, a cylinder, a can, not a handle, a blade, a tine or a wing tip), lies in the clicked
    cell's connected piece (the other pieces of a segment joined across a gap, pg_policy.perception.long_pieces,
@@ -107,8 +106,7 @@ def cut_at_neck(segment: np.ndarray, row: int, col: int) -> np.ndarray:
     segment = np.asarray(segment, bool)
     if not (0 <= row < segment.shape[0] and 0 <= col < segment.shape[1]) or not segment[row, col]:
         raise ValueError(f"cell (row {row}, col {col}) is not in the segment")
-    whole = ndimage.binary_fill_holes(segment)  # a hole in it (unseen cells, a gap) is no outline where two meet
-    inside = _inside(whole)
+    inside = _inside(segment)
     peak = _climb(inside, row, col)
     if inside[peak] < MIN_PEAK_CELLS:
         return segment  # a click on a thin part: nothing here is known to be one object
@@ -127,7 +125,7 @@ def cut_at_neck(segment: np.ndarray, row: int, col: int) -> np.ndarray:
     core_level = NECK_RATIO * float(inside[peak])
     _, parts = cv2.connectedComponents((inside > core_level).astype(np.uint8), connectivity=8)
     markers[(parts == parts[peak]) & (markers == 0)] = 1
-    part = (_basins(inside, whole, markers) == 1) & segment
+    part = _basins(inside, segment, markers) == 1
     if part.sum() < MIN_PART_CELLS or not part[row, col]:
         return segment
     part |= segment & (pieces != pieces[row, col])
