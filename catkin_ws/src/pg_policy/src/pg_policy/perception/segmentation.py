@@ -21,7 +21,8 @@ Method (OpenCV and scipy.ndimage):
 4. object cells the table basin reaches first (rims, pieces too thin for a seed) join the nearest label when they
    touch one, else form a label of their own;
 5. cells a single label encloses (a bowl's or cup's floor, lower than SEGMENT_HEIGHT_M or unseen) join it, and so
-   does a raised floor of its colour that it encloses (pg_policy.perception.floors); labels
+   does a raised floor of its colour that it encloses (pg_policy.perception.floors), and a raised hub of its
+   colour on a body of it that falls away from the hub (pg_policy.perception.hubs); labels
    under MIN_OBJECT_CELLS cells are dropped to 0; a label holding a connected piece of another chroma (COLOUR_EDGE
    apart, at least MIN_OBJECT_CELLS cells, meeting the rest at a colour edge) is split there
    (pg_policy.perception.colour_pieces: a rod or a small part too thin for a seed of its own, flooded from the
