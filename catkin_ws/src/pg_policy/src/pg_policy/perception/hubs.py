@@ -39,39 +39,44 @@ def join_hubs(labels: np.ndarray, height: np.ndarray, weighted_lab: np.ndarray, 
     far_kernel = np.ones((2 * FAR_CELLS + 1,) * 2, np.uint8)
     grow = np.ones((2 * GAP_CELLS + 1,) * 2, np.uint8)
     edge_kernel = np.ones((3, 3), np.uint8)
-    for label in np.unique(labels[labels > 0]):
-        part = out == label
+    boxes = ndimage.find_objects(labels)
+    for index, box in enumerate(boxes):
+        label = index + 1
+        if box is None:
+            continue
+        (r0, r1), (c0, c1) = ((b.start - GAP_CELLS, b.stop + GAP_CELLS) for b in box)
+        if r0 < 0 or c0 < 0 or r1 > out.shape[0] or c1 > out.shape[1]:
+            continue  # at the heightmap's edge: not seen surrounded
+        window = out[r0:r1, c0:c1]  # the label and the ring around it (every cell within GAP_CELLS of it)
+        part = window == label
         if int(part.sum()) < MIN_HUB_CELLS:
             continue
-        rows, cols = np.nonzero(part)
-        if (rows.min() < GAP_CELLS or cols.min() < GAP_CELLS or rows.max() + GAP_CELLS >= out.shape[0]
-                or cols.max() + GAP_CELLS >= out.shape[1]):
-            continue  # at the heightmap's edge: not seen surrounded
         filled = ndimage.binary_fill_holes(part)
         ring = cv2.dilate(filled.astype(np.uint8), grow).astype(bool) & ~filled
-        around = out[ring]
+        around = window[ring]
         owners, counts = np.unique(around, return_counts=True)
-        table = int(counts[owners == 0].sum())
-        if table > TABLE_SHARE * around.size:
+        if int(counts[owners == 0].sum()) > TABLE_SHARE * around.size:
             continue
         counts[owners == 0] = 0
         body = int(owners[np.argmax(counts)])
         if body in (0, label) or counts.max() < ENCLOSED_SHARE * around.size:
             continue
-        body_cells = out == body
-        near = ring & body_cells
+        near_h = float(np.median(height[r0:r1, c0:c1][ring & (window == body)]))
         edge = part & cv2.dilate((~part).astype(np.uint8), edge_kernel).astype(bool)
-        far = body_cells & ~cv2.dilate(part.astype(np.uint8), far_kernel).astype(bool)
-        if not far.any():
-            continue
-        near_h = float(np.median(height[near]))
-        step = float(np.median(height[edge])) - near_h
+        step = float(np.median(height[r0:r1, c0:c1][edge])) - near_h
         if not 0.0 <= step <= STEP_M:
             continue  # lower than the body round it (a floor) or far above it (an object standing on it)
-        if near_h < float(np.median(height[far])) + FALL_M:
+        body_cells = out == body
+        far = body_cells.copy()  # the body's cells farther than FAR_CELLS from the hub
+        f0, f1 = max(r0 - FAR_CELLS, 0), min(r1 + FAR_CELLS, out.shape[0])
+        g0, g1 = max(c0 - FAR_CELLS, 0), min(c1 + FAR_CELLS, out.shape[1])
+        hub = out[f0:f1, g0:g1] == label
+        far[f0:f1, g0:g1] &= ~cv2.dilate(hub.astype(np.uint8), far_kernel).astype(bool)
+        if not far.any() or near_h < float(np.median(height[far])) + FALL_M:
             continue  # the body does not fall away from it: an object lying on a vessel's floor or a flat top
+        hub_cells = out == label
         body_lab = np.median(weighted_lab[body_cells], axis=0)
-        if float(np.linalg.norm(np.median(weighted_lab[part], axis=0) - body_lab)) >= colour_edge:
+        if float(np.linalg.norm(np.median(weighted_lab[hub_cells], axis=0) - body_lab)) >= colour_edge:
             continue  # another colour: another object
-        out[part] = body
+        out[hub_cells] = body
     return out
