@@ -174,6 +174,34 @@ def test_a_target_carried_beyond_reach_is_re_found_among_what_moved_not_in_a_loo
     assert not track.mask.any() and "not found" in track.why
 
 
+def test_a_target_left_behind_by_a_track_on_a_look_alike_is_re_found_among_all_objects_once_that_is_lifted():
+    from pg_policy.perception.segmentation import lab_image
+
+    tracker = TargetTracker()
+    first = _blocks((20, 20, RED), (150, 150, RED))
+    tracker.start(first, (np.asarray(first.height) > 0) & (np.arange(224)[:, None] < 100))
+    carried = _blocks((20, 170, RED), (150, 150, RED))  # a push carried the target 30 cm; unsure tracks went ...
+    look_alike = np.zeros((224, 224), bool)
+    look_alike[150:170, 150:170] = True
+    tracker._found(carried, look_alike, lab_image(carried.color))  # ... onto the look-alike ...
+    track = tracker.update(_blocks((20, 170, RED)))  # ... which a grasp then lifted; the target did not move since
+    assert track.mask[25, 175] and track.unsure and "among all objects" in track.why, track.why
+
+
+def test_a_target_turned_onto_another_face_beyond_reach_is_re_found_as_the_one_object_of_its_colour():
+    tracker = TargetTracker()
+    first = _blocks((20, 20, RED), (150, 150, BLUE))
+    tracker.start(first, (np.asarray(first.height) > 0) & (np.arange(224)[:, None] < 100))
+    turned = _blocks((20, 170, RED), (20, 190, RED), (150, 150, BLUE))  # 30 cm away, twice as long: not its form
+    track = tracker.update(turned)
+    assert track.mask[25, 175] and track.mask[25, 205] and track.unsure and "one object of its colour" in track.why, (
+        track.why)
+    tracker = TargetTracker()
+    tracker.start(first, (np.asarray(first.height) > 0) & (np.arange(224)[:, None] < 100))
+    track = tracker.update(_blocks((20, 170, RED), (20, 190, RED), (150, 150, RED), (150, 170, RED)))
+    assert not track.mask.any() and "not found" in track.why  # two of its colour: neither is taken
+
+
 def test_when_the_tracked_object_is_lifted_the_unmoved_look_alike_beside_it_is_the_target():
     tracker = TargetTracker()
     first = _blocks((100, 100, RED), (100, 130, RED), (20, 200, RED))

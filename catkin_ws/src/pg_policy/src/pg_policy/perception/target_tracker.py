@@ -62,10 +62,14 @@ the target is looked for anywhere by appearance alone among the segments that mo
 segment with UNMOVED_FRACTION of its cells unchanged since that view did not move, and the target did): the one
 whose mean of colour and form reaches REFIND_SCORE with no other within REFIND_MARGIN of it is re-found, unsure
 ("re-found by appearance");
-objects alike in colour and form are never re-found this way. A found track is unsure when its score stays under
-SURE_SCORE or the runner-up comes within MARGIN of it. Objects of one colour are told apart by form and place alone.
-The appearance stays that of the first view; the place follows every found track. A target not found leaves the
-place where it was last seen.
+objects alike in colour and form are never re-found this way. When none of those is, every segment is, the unmoved
+ones too (the track that last found the target followed another object, which an action then lifted or carried off,
+and the target stayed where it was: "re-found by appearance among all objects"); failing that, the one segment whose
+colour term reaches REFIND_COLOUR, every other's staying under COLOUR_FLOOR, is the target, unsure (turned onto
+another face, or merged with a neighbour of another colour: "re-found as the one object of its colour"). A found
+track is unsure when its score stays under SURE_SCORE or the runner-up comes within MARGIN of it. Objects of one
+colour are told apart by form and place alone. The appearance stays that of the first view; the place follows every
+found track. A target not found leaves the place where it was last seen.
 
 A target named by a point keeps that point's cell (`start`'s `anchor`) while it has not been seen to move. A first
 mask can hold a look-alike beside the target (one colour, one height, no gap between them: one segment); when an
@@ -88,7 +92,7 @@ import cv2
 import numpy as np
 
 from pg_core.heightmap import Heightmap
-from pg_policy.perception.segment_scores import SURE_SCORE, UNCOVERED_MAX_M2, SegmentScorer
+from pg_policy.perception.segment_scores import COLOUR_FLOOR, SURE_SCORE, UNCOVERED_MAX_M2, SegmentScorer
 from pg_policy.perception.segmentation import (
     COLOUR_EDGE,
     LIGHTNESS_WEIGHT,
@@ -106,6 +110,7 @@ GATE_M = 0.12  # a segment's centroid this far (m) beyond the predicted displace
 PATH_FRACTIONS = (1.0, 2 / 3, 1 / 3, 0.0)  # places along a predicted displacement a moved target is scored at
 REFIND_SCORE = 0.8  # a target not found near its place is re-found where colour and form alone score this much
 REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
+REFIND_COLOUR = 0.7  # failing that, the one segment whose colour term reaches this, every other's under COLOUR_FLOOR
 UNMOVED_FRACTION = 0.5  # a segment with this share of its cells unchanged since the target was last found: unmoved
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
 IN_PLACE_RATIO = 2.5  # a target in place grows by what a cover laid bare to at most this many times the reference
@@ -350,23 +355,34 @@ class TargetTracker:
         return stayed[labels]
 
     def _refind(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, others: np.ndarray, why: str) -> Track:
-        """The target looked for anywhere by appearance (module docstring) among the segments that moved since it
-        was last found (less than UNMOVED_FRACTION of their cells in `others`, the (H, W) bool cells of other
-        objects unchanged since that view), or an empty track saying `why` not."""
+        """The target looked for anywhere by appearance (module docstring): first among the segments that moved
+        since it was last found (less than UNMOVED_FRACTION of their cells in `others`, the (H, W) bool cells of
+        other objects unchanged since that view), then among all segments; or an empty track saying `why` not."""
         assert self.reference is not None and self.last_mask is not None
-        ref, scored = self.reference, []
+        ref, moved, still = self.reference, [], []
         for label in range(1, int(labels.max()) + 1):
             seg = labels == label
-            if (seg & others).sum() >= UNMOVED_FRACTION * seg.sum():
-                continue  # it did not move since the target was last found: not the target, which did
             colour, form, _, _ = match_terms(ref, describe(hm, seg, lab), seg, seg, (0.0, 0.0), self.resolution)
-            scored.append(((colour + form) / 2.0, colour, form, seg))
-        scored.sort(key=lambda s: s[0], reverse=True)
-        if scored and scored[0][0] >= REFIND_SCORE and (len(scored) == 1 or
-                                                        scored[0][0] - scored[1][0] >= REFIND_MARGIN):
-            score, colour, form, mask = scored[0]
+            unmoved = (seg & others).sum() >= UNMOVED_FRACTION * seg.sum()
+            (still if unmoved else moved).append(((colour + form) / 2.0, colour, form, seg))
+        # the target moved (it is not where it was last found) unless that track followed another object, which an
+        # action then lifted or carried off: the target may be any object
+        for scored, among in ((moved, ""), (moved + still, " among all objects")):
+            scored.sort(key=lambda s: s[0], reverse=True)
+            if scored and scored[0][0] >= REFIND_SCORE and (len(scored) == 1 or
+                                                            scored[0][0] - scored[1][0] >= REFIND_MARGIN):
+                score, colour, form, mask = scored[0]
+                self._found(hm, mask, lab)
+                self.anchor = None
+                return Track(mask, float(score), True, f"re-found by appearance{among} {score:.2f} (colour "
+                             f"{colour:.2f} form {form:.2f}; not found near its place: {why})")
+        # a target turned onto another face, or merged with a neighbour of another colour, keeps its colour: the
+        # one segment of that colour, where no other comes near it
+        ranked = sorted(moved + still, key=lambda s: s[1], reverse=True)
+        if ranked and ranked[0][1] >= REFIND_COLOUR and (len(ranked) == 1 or ranked[1][1] < COLOUR_FLOOR):
+            _, colour, form, mask = ranked[0]
             self._found(hm, mask, lab)
             self.anchor = None
-            return Track(mask, float(score), True, f"re-found by appearance {score:.2f} (colour {colour:.2f} form "
-                         f"{form:.2f}; not found near its place: {why})")
+            return Track(mask, float(colour), True, f"re-found as the one object of its colour (colour {colour:.2f} "
+                         f"form {form:.2f}; not found near its place: {why})")
         return Track(np.zeros_like(self.last_mask), 0.0, True, f"not found: {why}")
