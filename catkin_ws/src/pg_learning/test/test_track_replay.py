@@ -1,5 +1,5 @@
 """pg_learning.evaluation.track_replay: a recorded trial replays to the masks the trial tracked (the same IoU at
-every step as its record says), and a folder without recorded trials is refused."""
+every step as its record says), and a folder without recorded trials or an unknown scene is refused."""
 
 from __future__ import annotations
 
@@ -30,3 +30,6 @@ def test_an_evaluation_seed_check_and_an_empty_folder_are_refused(tmp_path):
         record(["packed/case05"], 5001, 1, tmp_path)  # a training seed without --allow-train-seeds
     with pytest.raises(SystemExit):
         main(["replay", str(tmp_path)])
+    with pytest.raises(ValueError, match="packed/case99"):
+        record(["packed", "packed/case99"], 5001, 1, tmp_path / "out", allow_train_seeds=True)
+    assert not (tmp_path / "out").exists()  # refused before anything is written

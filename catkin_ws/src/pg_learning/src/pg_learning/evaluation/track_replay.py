@@ -69,15 +69,23 @@ class _Views:
 def record(scenes: list[str], seed: int, trials: int, out: Path, policy: str = "lite", colours: str = "repeated",
            allow_train_seeds: bool = False) -> int:
     """Record `trials` trials of each scene (seeds seed .. seed + trials - 1) into `out`; trials already there are
-    kept (resumable); a trial that took no action (its target not in view to point at) is not. Returns the number
-    recorded. ValueError for an evaluation seed check that fails."""
+    kept (resumable); a trial that took no action (its target not in view to point at) is not. `scenes` as
+    `pushgrasp eval --scenes` takes them ("packed" and "household" are their shipped scenes). Returns the number
+    recorded. ValueError, before anything is written, for an evaluation seed check that fails or an unknown scene."""
     from pg_learning.environment.sim_env import SimEnv
-    from pg_learning.evaluation.runner import DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW, run_trial, trial_scene
+    from pg_learning.evaluation.runner import (
+        DEFAULT_JITTER_XY,
+        DEFAULT_JITTER_YAW,
+        expand_scenes,
+        run_trial,
+        trial_scene,
+    )
     from pg_policy.policies.registry import make_policy
     from pg_policy.target_loop.episode import Limits, check_eval_seed
 
     if not allow_train_seeds:
         check_eval_seed(seed)
+    scenes = expand_scenes(scenes)
     out.mkdir(parents=True, exist_ok=True)
     journal = out / "trials.jsonl"
     if not journal.exists():
@@ -162,7 +170,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     sub = ap.add_subparsers(dest="command", required=True)
     rec = sub.add_parser("record", help="run and record tracked trials")
-    rec.add_argument("--scenes", nargs="+", required=True, help="scene names or generated families")
+    rec.add_argument("--scenes", nargs="+", required=True,
+                     help="as `pushgrasp eval --scenes`: packed, household, scene names or generated families")
     rec.add_argument("--seed", type=int, default=1_000_000, help="first trial seed of each scene")
     rec.add_argument("--trials", type=int, default=10, help="trials per scene")
     rec.add_argument("--policy", default="lite", help="policy name or model directory")
