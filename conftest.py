@@ -21,6 +21,10 @@ from pathlib import Path
 
 import pytest
 
+from pg_core.cpu_kernels import pin_cpu_kernels
+
+pin_cpu_kernels()  # before any test loads numpy: the kernels the CLI and the nodes run (pg_core.cpu_kernels)
+
 REPO = Path(__file__).resolve().parent
 ROS_TIER_OPT_OUT = "PG_SKIP_ROS_TIER"
 ROS_TIER = "ROS tier: "

@@ -17,6 +17,8 @@ import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from pg_core.cpu_kernels import pin_cpu_kernels
+
 LEARNING = "the learning package pg_learning (simulation: pg_sim, PyBullet)"
 SIMULATOR = "the simulator package pg_sim (PyBullet)"
 # top-level modules whose absence makes another package's subcommand unavailable (not a bug of that package)
@@ -88,6 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    pin_cpu_kernels()  # before any subcommand loads numpy: the same kernels on every machine (pg_core.cpu_kernels)
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
     if getattr(args, "unavailable", None):
