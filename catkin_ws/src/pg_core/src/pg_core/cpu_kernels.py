@@ -13,7 +13,9 @@ Q values in the sixth decimal). Elsewhere it changes nothing: the native kernels
 other machines'.
 
 The entry points call it before anything imports numpy: the `pushgrasp` CLI, the ROS nodes and the test suite's
-conftest. A variable the user has set is kept; PG_NATIVE_KERNELS=1 turns the pin off (each library's own choice).
+conftest; so do the packages that play trials, pg_sim and pg_learning, when they are imported (their `python -m`
+tools then run pinned; a program that imported numpy before them keeps its native kernels). A variable the user
+has set is kept; PG_NATIVE_KERNELS=1 turns the pin off (each library's own choice).
 Importing this module imports neither numpy nor torch.
 """
 
@@ -54,11 +56,11 @@ def pinned_variables(flags: set[str], machine: str) -> dict[str, str]:
 
 
 def pin_cpu_kernels(environ: MutableMapping[str, str] | None = None, flags: set[str] | None = None,
-                    machine: str | None = None) -> dict[str, str]:
+                    machine: str | None = None, warn: bool = True) -> dict[str, str]:
     """Set the pinning variables in `environ` (os.environ) that are not set already; returns those set. Nothing
     is set with PG_NATIVE_KERNELS=1 or on a CPU the pinned kernels do not run on. Call it before numpy loads: once
-    numpy is imported the variables no longer act on this process (its children still read them), and a
-    RuntimeWarning says so."""
+    numpy is imported the variables no longer act on this process (its children still read them), and with
+    `warn` a RuntimeWarning says so."""
     env = os.environ if environ is None else environ
     if env.get(OPT_OUT, "") == "1":
         return {}
@@ -66,7 +68,7 @@ def pin_cpu_kernels(environ: MutableMapping[str, str] | None = None, flags: set[
                               else machine)
     added = {k: v for k, v in wanted.items() if k not in env}
     env.update(added)
-    if added and environ is None and "numpy" in sys.modules:
+    if warn and added and environ is None and "numpy" in sys.modules:
         import warnings
 
         warnings.warn("pg_core.cpu_kernels.pin_cpu_kernels called after numpy was imported: this process keeps "
