@@ -24,7 +24,8 @@ from __future__ import annotations
 import os
 import platform
 import sys
-from collections.abc import MutableMapping
+from collections.abc import MutableMapping, Set
+from functools import lru_cache
 
 OPENBLAS_CORE = "Haswell"  # OpenBLAS's AVX2 + FMA kernels, which every CPU pinned here runs
 NUMPY_AVX512 = ("AVX512F", "AVX512CD", "AVX512_KNL", "AVX512_KNM", "AVX512_SKX", "AVX512_CLX", "AVX512_CNL",
@@ -34,19 +35,21 @@ NEEDED_FLAGS = ("avx2", "fma")  # /proc/cpuinfo flags the pinned kernels need
 OPT_OUT = "PG_NATIVE_KERNELS"  # set to 1: leave the libraries' own kernel choice
 
 
-def cpu_flags(path: str = "/proc/cpuinfo") -> set[str]:
-    """The CPU's feature flags as Linux lists them (lower case); empty where the file is missing or unreadable."""
+@lru_cache(maxsize=4)
+def cpu_flags(path: str = "/proc/cpuinfo") -> frozenset[str]:
+    """The CPU's feature flags as Linux lists them (lower case); empty where the file is missing or unreadable. Read
+    once per process and path (the CLI, pg_sim and pg_learning each pin at start-up)."""
     try:
         with open(path, encoding="ascii", errors="replace") as f:
             for line in f:
                 if line.startswith("flags"):
-                    return set(line.split(":", 1)[1].split())
+                    return frozenset(line.split(":", 1)[1].split())
     except OSError:
         pass
-    return set()
+    return frozenset()
 
 
-def pinned_variables(flags: set[str], machine: str) -> dict[str, str]:
+def pinned_variables(flags: Set[str], machine: str) -> dict[str, str]:
     """The environment variables that pin the kernels on a CPU with `flags` and architecture `machine`
     (platform.machine()); empty where the pinned kernels would not run (not x86-64, or no AVX2 and FMA)."""
     if machine.lower() not in ("x86_64", "amd64") or not all(f in flags for f in NEEDED_FLAGS):
@@ -55,7 +58,7 @@ def pinned_variables(flags: set[str], machine: str) -> dict[str, str]:
             "ONEDNN_MAX_CPU_ISA": ONEDNN_ISA}
 
 
-def pin_cpu_kernels(environ: MutableMapping[str, str] | None = None, flags: set[str] | None = None,
+def pin_cpu_kernels(environ: MutableMapping[str, str] | None = None, flags: Set[str] | None = None,
                     machine: str | None = None, warn: bool = True) -> dict[str, str]:
     """Set the pinning variables in `environ` (os.environ) that are not set already; returns those set. Nothing
     is set with PG_NATIVE_KERNELS=1 or on a CPU the pinned kernels do not run on. Call it before numpy loads: once
