@@ -5,11 +5,12 @@ import math
 
 import numpy as np
 import pytest
-from rule_testing import apply_rule
+from rule_testing import apply_rule, context
 
 from pg_core.geometry import load
 from pg_core.heightmap import Heightmap, world_to_pixel
 from pg_policy.decision.rules.edge_guard import EdgeGuard
+from pg_policy.decision.rules.pipeline import RulePipeline
 
 GEO = load()
 H = W = 224
@@ -145,3 +146,19 @@ def test_the_rule_list_takes_the_guard_from_the_options_else_from_the_model_meta
     assert "edge_guard" not in model_rules({}) and "edge_guard" in model_rules(on)
     assert "edge_guard" not in resolved_rules(model_rules(on), {"edge_guard": "off"})
     assert "edge_guard" in resolved_rules(model_rules({}), {"edge_guard": True})
+
+
+def test_while_the_target_is_hidden_a_push_must_not_carry_the_object_it_meets_out():
+    hm, _ = _target_at(0.0, -0.15)  # a block the hidden target may lie under, 4.4 cm inside the margin
+    hidden = np.zeros((H, W), bool)  # the goal: every object cell stands in for the target (RuleContext)
+    guard = EdgeGuard(GEO)
+    out_push, in_push = (MINUS_Y, *_cell(0.0, -0.12)), (PLUS_Y, *_cell(0.0, -0.18))
+    res = RulePipeline([guard]).apply({"push": _q(out_push, in_push), "grasp": np.zeros((16, H, W))},
+                                      context(hm, hm.height > 0, np.ones((H, W), bool), visible=False))
+    assert res.q["push"][out_push] == -np.inf and res.rejected["push"] == 1
+    assert np.unravel_index(np.argmax(res.q["push"]), res.q["push"].shape) == in_push
+    test = guard.candidate_test(context(hm, hidden, visible=False))
+    assert test is not None and test(MINUS_Y, *_cell(0.06, -0.12))  # misses the block
+    assert test(PLUS_X, *_cell(-0.05, -0.15))  # along the edge, no farther out
+    empty = Heightmap(hm.color, np.zeros((H, W), np.float32), hm.valid, hm.resolution, hm.bounds)
+    assert guard.candidate_test(context(empty, hidden, visible=False)) is None

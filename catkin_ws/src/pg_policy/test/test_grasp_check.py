@@ -116,6 +116,27 @@ def test_walls_accept_a_box_both_ways():
     assert walls.passes(hm, target, ALONG_X, C, C) and walls.passes(hm, target, ALONG_Y, C, C)
 
 
+def _body_with_low_handle() -> tuple[Heightmap, np.ndarray]:
+    """A mug lying on its side, as boxes: a body 7 cm across x, 9 cm along y and 7.5 cm high at the centre, and a
+    handle lying flat beside it, 1.5 cm high, reaching 3 cm further along +x over 5 cm of the body's length."""
+    height = np.zeros((H, W), np.float32)
+    height[C - 22:C + 23, C - 17:C + 18] = 0.075
+    height[C - 12:C + 13, C + 18:C + 33] = 0.015
+    hm = Heightmap(np.zeros((H, W, 3), np.uint8), height, np.ones((H, W), bool), GEO.heightmap.resolution,
+                   GEO.workspace.bounds)
+    return hm, height > 0
+
+
+def test_a_low_part_under_the_fingertips_does_not_count_towards_the_width_between_the_pads():
+    hm, target = _body_with_low_handle()  # 10 cm across x with the handle: wider than the open jaw (8.5 cm)
+    walls = make_grasp_check("jaw-walls", GEO)
+    assert walls.passes(hm, target, ALONG_X, C, C)  # fingertips at 3.5 cm pass over the 1.5 cm handle
+    assert not walls.passes(hm, target, ALONG_Y, C, C)  # 9 cm along y: too long for the jaw
+    flat = Heightmap(hm.color, np.where(target, np.float32(0.075), np.float32(0.0)), hm.valid, hm.resolution,
+                     hm.bounds)
+    assert not walls.passes(flat, target, ALONG_X, C, C)  # a handle as high as the body is between the pads
+
+
 @pytest.mark.parametrize("walls", [False, True])
 def test_the_batched_check_answers_as_the_one_by_one_check(walls):
     """passes_many (what the re-rank asks, in batches) gives passes' answer for every candidate: free and boxed-in
@@ -123,7 +144,8 @@ def test_the_batched_check_answers_as_the_one_by_one_check(walls):
     rng = np.random.default_rng(3)
     check = JawGraspCheck(GEO, strict=True, walls=walls)
     answers = []
-    for hm, target in (_scene(), _scene((0, 20)), _scene((0, 20), (20, 0)), _scene((0, 20), (0, -20), (20, 0))):
+    for hm, target in (_scene(), _scene((0, 20)), _scene((0, 20), (20, 0)), _scene((0, 20), (0, -20), (20, 0)),
+                       _body_with_low_handle()):
         rots, rows, cols = rng.integers(0, 16, 150), rng.integers(C - 9, C + 10, 150), rng.integers(C - 9, C + 10, 150)
         one = [check.passes(hm, target, int(r), int(y), int(x)) for r, y, x in zip(rots, rows, cols, strict=True)]
         many = check.passes_many(hm, target, rots, rows, cols)

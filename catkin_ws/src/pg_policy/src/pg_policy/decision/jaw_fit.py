@@ -82,15 +82,19 @@ class JawFit:
         return CellWindow(hm, mask_centre(hm, target), self.p.window), others
 
     def grasp_fit(self, t_xy: np.ndarray, o_xy: np.ndarray, o_h: np.ndarray, centre: np.ndarray, yaw: float,
-                  z_grasp: float) -> tuple[float, np.ndarray, float] | None:
+                  z_grasp: float, t_h: np.ndarray | None = None) -> tuple[float, np.ndarray, float] | None:
         """Clearance (m, >= 0 means free), the pad-centred grasp point and the target's width between the pads (m) of
         a grasp at `yaw` through `centre` with the fingertips at `z_grasp` (m).
 
-        t_xy: (M, 2) target cells; o_xy, o_h: (K, 2) cells of other objects and their heights. None when the target
-        does not fit between the pads, too few target cells lie between them, or the target is narrower in the
-        pads' central strip than between them (the pads would touch it off the closing line: it squirts out).
+        t_xy: (M, 2) target cells; o_xy, o_h: (K, 2) cells of other objects and their heights; t_h: (M,) the target
+        cells' heights, when given the cells lower than z_grasp - obstacle_tol are left out (the pads pass over
+        them: a mug's handle lying flat beside its body). None when the target does not fit between the pads, too
+        few target cells lie between them, or the target is narrower in the pads' central strip than between them
+        (the pads would touch it off the closing line: it squirts out).
         """
         p = self.p
+        if t_h is not None:
+            t_xy = t_xy[t_h > z_grasp - p.obstacle_tol]
         u = np.array([math.cos(yaw), math.sin(yaw)])
         v = np.array([-u[1], u[0]])
         rel = t_xy - centre
@@ -120,10 +124,11 @@ class JawFit:
         return (float(dist.min()) if (dist > 0).all() else -1.0), c2, hi - lo
 
     def grasp_fit_many(self, t_xy: np.ndarray, o_xy: np.ndarray, o_h: np.ndarray, centres: np.ndarray,
-                       yaws: np.ndarray, z_grasp: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                       yaws: np.ndarray, z_grasp: np.ndarray,
+                       t_h: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """`grasp_fit` for K grasps at once: (clearance (K,) m, grasp points (K, 2), widths (K,) m).
 
-        centres (K, 2), yaws (K,), z_grasp (K,): the grasps; t_xy, o_xy, o_h as in `grasp_fit`. A grasp that
+        centres (K, 2), yaws (K,), z_grasp (K,): the grasps; t_xy, o_xy, o_h, t_h as in `grasp_fit`. A grasp that
         `grasp_fit` answers None for gets clearance NaN; -1 where a neighbour stands in a finger's sweep; otherwise
         `grasp_fit`'s clearance up to float rounding (the sign, which the grasp check reads, is the same).
         """
@@ -137,13 +142,15 @@ class JawFit:
         t = t[..., 0]
         s = (rel @ u[:, :, None])[..., 0]
         band = np.abs(t) <= self.finger_w / 2 + p.margin
+        if t_h is not None:  # the target's cells under the fingertips are not between the pads
+            band &= t_h[None] > (np.asarray(z_grasp, dtype=np.float64).reshape(-1) - p.obstacle_tol)[:, None]
         inf = np.inf
         ok = band.sum(axis=1) >= p.min_band_cells
         ok &= ~(np.where(band, t, inf).min(axis=1) > -p.centre_line)
         ok &= ~(np.where(band, t, -inf).max(axis=1) < p.centre_line)
         lo, hi = np.where(band, s, inf).min(axis=1), np.where(band, s, -inf).max(axis=1)
         ok &= ~(hi - lo > 2 * (self.half_open - p.margin))
-        line = np.abs(t) <= p.centre_line
+        line = (np.abs(t) <= p.centre_line) & (band if t_h is not None else True)
         ok &= line.any(axis=1)
         chord = np.where(line, s, -inf).max(axis=1) - np.where(line, s, inf).min(axis=1)
         ok &= ~(chord < (hi - lo) - p.chord_tol)

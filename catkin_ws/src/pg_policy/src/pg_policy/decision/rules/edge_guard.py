@@ -20,10 +20,12 @@ metres, default INWARD_M; "edge_guard:0" allows such pushes). Within `near_m` of
 meets the target's cluster while its centre lies that close to a side must carry the centre back in by `inward_m`
 (scissors pushed along the edge by their tip swing out, household-10 seed 1,000,019; 0 < near_m <= margin_m adds
 nothing; off in the shipped list: on the training seeds 0.08 m completes no more trials, docs/RESULTS.md "The grasp
-search shipped"). Pushes back inwards and pushes that miss the cluster stay allowed. As the test-time
-rule "edge_guard" (pg_policy.decision.rules.rule) it is a candidate test on Q_p while the target is visible: the
-pipeline re-ranks Q_p's best cells of the push region by it and every other push rule together. A test-time
-deviation from the paper (docs/ARCHITECTURE.md).
+search shipped"). Pushes back inwards and pushes that miss the cluster stay allowed. While the target is hidden it
+may lie under whatever the push meets (a plate over it carries it along), so the same test applies to the cluster
+of the first occupied cell in the finger corridor, its centre standing for the target's. As the test-time rule
+"edge_guard" (pg_policy.decision.rules.rule) it is a candidate test on Q_p: the pipeline re-ranks Q_p's best cells
+of the push region by it and every other push rule together. A test-time deviation from the paper
+(docs/ARCHITECTURE.md).
 """
 
 from __future__ import annotations
@@ -127,9 +129,40 @@ class EdgeGuard(Rule):
         return out <= now + 1e-9
 
     def candidate_test(self, ctx: RuleContext) -> CandidateTest | None:
-        if not ctx.visible or not ctx.target.any():
+        if not ctx.visible:
+            return self.hidden_test(ctx.heightmap)
+        if not ctx.target.any():
             return None
         return self.target_test(ctx.heightmap, ctx.target)
+
+    def hidden_test(self, hm: Heightmap) -> CandidateTest | None:
+        """The yes/no test of a push candidate (rotation, row, col) in `hm` while the target is hidden: the cluster
+        the push meets first (the occupied cells joined through gaps of at most gap_cells cells) stands for the
+        target riding on it. None when no cell is occupied."""
+        from scipy import ndimage
+
+        occupied = hm.height > self.occupied
+        if not occupied.any():
+            return None
+        grow = (self.gap + 1) // 2
+        joined = ndimage.binary_dilation(occupied, iterations=grow) if grow else occupied
+        labels, _ = ndimage.label(joined, structure=np.ones((3, 3), bool))
+        rows, cols = np.nonzero(occupied)
+        xy, label = cell_centres(rows, cols, hm.bounds, hm.resolution), labels[rows, cols]
+
+        def allowed(r: int, row: int, col: int) -> bool:
+            start = np.array(pixel_to_world(row, col, hm.bounds, hm.resolution))
+            yaw = rotation_yaw(r, self.rotations)
+            u = np.array([math.cos(yaw), math.sin(yaw)])
+            rel = xy - start
+            s, t = rel @ u, rel @ np.array([-u[1], u[0]])
+            hit = (np.abs(t) <= self.half_width) & (s >= 0.0) & (s <= self.length)
+            if not hit.any():
+                return True
+            met = xy[label == label[np.flatnonzero(hit)[np.argmin(s[hit])]]]
+            return self.allows(met, start, yaw, met)
+
+        return allowed
 
     def target_test(self, hm: Heightmap, target: np.ndarray) -> CandidateTest:
         """The yes/no test of a push candidate (rotation, row, col) in `hm` for the non-empty (H, W) bool `target`."""

@@ -1,21 +1,23 @@
 """A geometric check of the learned grasp: the jaw-footprint test (pg_policy.decision.jaw_fit) on Q_g's best cells.
 
 Q_g is an (R, H, W) float map over R rotations (rotation r: the fingers close along yaw = r * 2 pi / R) and the
-heightmap's cells (pg_core.heightmap; heights in metres above the table). As the test-time rule
-"grasp_check:VARIANT" (pg_policy.decision.rules.rule) it is a candidate test on Q_g while the target is visible: the
-pipeline walks the grasp region's cells in descending Q_g (at most `top_k`) and keeps the first whose grasp passes
-the jaw model's `grasp_fit` at that cell and yaw: the target fits between the open pads, it is as wide in the pads'
-central strip as anywhere between them (else a round or wedge-shaped target squirts out), no neighbour stands in a
-finger's sweep, and the cell lies within `centre_tol_m` of the pad-centred grasp line. It only re-ranks: the passing
-cell takes the best value and the cells ranked above it get -inf, so the grasp-or-push decision (masked max vs the
-threshold) is the same as without the check. When no candidate passes, Q_g is unchanged; the strict variants
-("jaw-strict", "jaw-walls") then ask the policy to push instead of grasping, as the heuristic baseline does when it
-finds no free grasp. "jaw-walls" is "jaw-strict" that also demands walls where the pads touch: the target's highest
-cell within `wall_window_m` of each end of its extent between the pads must stand at least `wall_tol_m` above the
-fingertips (the grasp z). A top-down heightmap sees the silhouette's edge at the height of the target's widest part,
-so a low edge means the target narrows above the fingertips (a half cylinder or a wedge lying flat): the pads would
-meet a slope and squeeze it down and out. A test-time deviation from the paper (docs/ARCHITECTURE.md); "jaw-walls"
-is in the shipped model's rule list.
+heightmap's cells (pg_core.heightmap; heights in metres above the table). As the test-time rule "grasp_check:VARIANT"
+(pg_policy.decision.rules.rule) it is a candidate test on Q_g while the target is visible: the pipeline walks the grasp
+region's cells in descending Q_g (at most `top_k`) and keeps the first whose grasp passes the jaw model's `grasp_fit` at
+that cell and yaw: the target fits between the open pads, it is as wide in the pads' central strip as anywhere between
+them (else a round or wedge-shaped target squirts out), no neighbour stands in a finger's sweep, and the cell lies
+within `centre_tol_m` of the pad-centred grasp line. A grasp that fails so passes when it passes with the target's cells
+lower than the fingertips by the jaw model's obstacle tolerance left out, for the walls below too: the pads pass over
+them (a handle lying flat beside a mug's body). Leaving them out never refuses a grasp the whole target passes (a short
+object deep in a vessel, under the fingertips whole). It only re-ranks: the passing cell takes the best value and the
+cells ranked above it get -inf, so the grasp-or-push decision (masked max vs the threshold) is the same as without the
+check. When no candidate passes, Q_g is unchanged; the strict variants ("jaw-strict", "jaw-walls") then ask the policy
+to push instead of grasping, as the heuristic baseline does when it finds no free grasp. "jaw-walls" is "jaw-strict"
+that also demands walls where the pads touch: the target's highest cell within `wall_window_m` of each end of its extent
+between the pads must stand at least `wall_tol_m` above the fingertips (the grasp z). A top-down heightmap sees the
+silhouette's edge at the height of the target's widest part, so a low edge means the target narrows above the fingertips
+(a half cylinder or a wedge lying flat): the pads would meet a slope and squeeze it down and out. A test-time deviation
+from the paper (docs/ARCHITECTURE.md); "jaw-walls" is in the shipped model's rule list.
 
 Rim grasps: a candidate cell of the target that lies in a pit along the closing line (pg_core.action_geometry.rim_pit:
 a bowl's, cup's or mug's floor or inner wall next to its wall) passes without the footprint and wall tests when no
@@ -136,22 +138,29 @@ class JawGraspCheck(Rule):
         yaw = rotation_yaw(rotation, self.jaw.rotations)
         centre = np.array(pixel_to_world(row, col, hm.bounds, hm.resolution))
         zg = grasp_z_at(hm, row, col, self.prims, yaw=yaw)  # the z action_pose executes
-        fit = self.jaw.grasp_fit(cells.xy[t], cells.xy[o], cells.h[o], centre, yaw, zg)
         u = np.array([math.cos(yaw), math.sin(yaw)])
-        if fit is not None and fit[0] >= 0 and abs(float((fit[1] - centre) @ u)) <= self.centre_tol and (
-                not self.walls or self.wall_height(cells.xy[t], cells.h[t], fit[1], yaw) >= zg + self.wall_tol):
-            return True
+        for low in (None, cells.h[t]):  # every target cell between the pads, then those not under the fingertips
+            fit = self.jaw.grasp_fit(cells.xy[t], cells.xy[o], cells.h[o], centre, yaw, zg, t_h=low)
+            if fit is not None and fit[0] >= 0 and abs(float((fit[1] - centre) @ u)) <= self.centre_tol and (
+                    not self.walls or self.wall_height(cells.xy[t], cells.h[t], fit[1], yaw,
+                                                       None if low is None else zg) >= zg + self.wall_tol):
+                return True
         return (self.rim_grasp(hm, target, row, col, yaw, centre, zg, cells.xy[o], cells.h[o])
                 or self.part_grasp(hm, target, row, col, yaw, centre, zg, cells.xy[o], cells.h[o]))
 
-    def wall_height(self, t_xy: np.ndarray, t_h: np.ndarray, centre: np.ndarray, yaw: float) -> float:
+    def wall_height(self, t_xy: np.ndarray, t_h: np.ndarray, centre: np.ndarray, yaw: float,
+                    z_grasp: float | None = None) -> float:
         """The lower of the target's two wall heights (m) where the pads of a grasp at `yaw` through `centre` touch:
         the highest of the (M, 2) target cells `t_xy` (heights `t_h`) between the pads and within wall_window_m of
-        either end of the target's extent along the closing axis."""
+        either end of the target's extent along the closing axis; with the fingertips' `z_grasp`, the cells under
+        them left out, as `grasp_fit` leaves them out given the heights."""
         u = np.array([math.cos(yaw), math.sin(yaw)])
         v = np.array([-u[1], u[0]])
         rel = t_xy - centre
-        band = np.abs(rel @ v) <= self.jaw.finger_w / 2 + self.jaw.p.margin
+        p = self.jaw.p
+        band = np.abs(rel @ v) <= self.jaw.finger_w / 2 + p.margin
+        if z_grasp is not None:
+            band &= t_h > z_grasp - p.obstacle_tol
         if not band.any():
             return 0.0
         s, h = rel[band] @ u, t_h[band]
@@ -177,13 +186,17 @@ class JawGraspCheck(Rule):
                            dtype=np.float64).reshape(-1, 2)
         zg = np.array([grasp_z_at(hm, r, c, self.prims, yaw=float(yw))
                        for (r, c), yw in zip(cells_rc, yaws, strict=True)], dtype=np.float64)
-        clear, c2, _ = self.jaw.grasp_fit_many(t_xy, o_xy, o_h, centres, yaws, zg)
-        ok = clear >= 0 if clearance else ~np.isnan(clear)  # NaN: the target does not fit between the pads
         u = np.stack([np.cos(yaws), np.sin(yaws)], axis=1)
-        ok &= ~(np.abs(((c2 - centres)[:, None, :] @ u[:, :, None])[:, 0, 0]) > self.centre_tol)
-        if walls:
-            for i in np.flatnonzero(ok):
-                ok[i] = self.wall_height(t_xy, t_h, c2[i], float(yaws[i])) >= zg[i] + self.wall_tol
+        ok = np.zeros(len(zg), bool)
+        for low in (None, t_h):  # every target cell between the pads, then those not under the fingertips
+            clear, c2, _ = self.jaw.grasp_fit_many(t_xy, o_xy, o_h, centres, yaws, zg, t_h=low)
+            fits = clear >= 0 if clearance else ~np.isnan(clear)  # NaN: the target does not fit between the pads
+            fits &= ~ok & ~(np.abs(((c2 - centres)[:, None, :] @ u[:, :, None])[:, 0, 0]) > self.centre_tol)
+            if walls:
+                for i in np.flatnonzero(fits):
+                    fits[i] = self.wall_height(t_xy, t_h, c2[i], float(yaws[i]),
+                                               None if low is None else float(zg[i])) >= zg[i] + self.wall_tol
+            ok |= fits
         for i in np.flatnonzero(~ok):
             args = (hm, target, int(rows[i]), int(cols[i]), float(yaws[i]), centres[i], float(zg[i]), o_xy, o_h,
                     clearance)
