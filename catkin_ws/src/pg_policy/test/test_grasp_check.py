@@ -240,3 +240,14 @@ def test_the_wall_normal_points_up_the_wall_and_is_none_on_a_flat_floor():
     normal = wall_normal(hm.height, (C - 37, C), hm.resolution)  # the -y wall's inner face (rows along y)
     assert normal is not None and normal[1] < -0.95
     assert wall_normal(hm.height, (C, C), hm.resolution) is None
+
+
+def test_a_target_wholly_under_the_fingertips_is_not_refused_for_lack_of_cells_above_them():
+    """Leaving the low cells out only passes grasps: a flat brick (4 x 3 cm, 1 cm high), all of it lower than the
+    fingertips, passes as the whole target does."""
+    height = np.zeros((H, W), np.float32)
+    height[C - 7:C + 8, C - 10:C + 10] = 0.01
+    hm = Heightmap(np.zeros((H, W, 3), np.uint8), height, np.ones((H, W), bool), GEO.heightmap.resolution,
+                   GEO.workspace.bounds)
+    check = make_grasp_check("jaw", GEO)
+    assert check.passes(hm, height > 0, ALONG_X, C, C)
