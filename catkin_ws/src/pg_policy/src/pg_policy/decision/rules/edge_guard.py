@@ -95,14 +95,19 @@ class EdgeGuard(Rule):
     def cluster(self, height: np.ndarray, target: np.ndarray) -> np.ndarray:
         """(H, W) bool: the target's cells and the occupied cells of the (H, W) `height` map (m) joined to them
         through gaps of at most gap_cells cells (rounded up to even; 8-connected)."""
-        from scipy import ndimage
-
         occupied = (height > self.occupied) | target
-        grow = (self.gap + 1) // 2  # both sides grow: a gap of 2 * grow cells closes
-        joined = ndimage.binary_dilation(occupied, iterations=grow) if grow else occupied
-        labels, _ = ndimage.label(joined, structure=np.ones((3, 3), bool))
+        labels = self.labels(occupied)
         ids = np.unique(labels[target])
         return np.isin(labels, ids[ids > 0]) & occupied
+
+    def labels(self, occupied: np.ndarray) -> np.ndarray:
+        """(H, W) int labels of the (H, W) bool `occupied` cells joined through gaps of at most gap_cells cells
+        (rounded up to even; 8-connected); 0 off the joined cells."""
+        from scipy import ndimage
+
+        grow = (self.gap + 1) // 2  # both sides grow: a gap of 2 * grow cells closes
+        joined = ndimage.binary_dilation(occupied, iterations=grow) if grow else occupied
+        return ndimage.label(joined, structure=np.ones((3, 3), bool))[0]
 
     def carried(self, c_xy: np.ndarray, start: np.ndarray, yaw: float) -> float:
         """Distance (m) a push from `start` along `yaw` carries the rigid body whose cells are the (M, 2) `c_xy`."""
@@ -139,16 +144,11 @@ class EdgeGuard(Rule):
         """The yes/no test of a push candidate (rotation, row, col) in `hm` while the target is hidden: the cluster
         the push meets first (the occupied cells joined through gaps of at most gap_cells cells) stands for the
         target riding on it. None when no cell is occupied."""
-        from scipy import ndimage
-
         occupied = hm.height > self.occupied
         if not occupied.any():
             return None
-        grow = (self.gap + 1) // 2
-        joined = ndimage.binary_dilation(occupied, iterations=grow) if grow else occupied
-        labels, _ = ndimage.label(joined, structure=np.ones((3, 3), bool))
         rows, cols = np.nonzero(occupied)
-        xy, label = cell_centres(rows, cols, hm.bounds, hm.resolution), labels[rows, cols]
+        xy, label = cell_centres(rows, cols, hm.bounds, hm.resolution), self.labels(occupied)[rows, cols]
 
         def allowed(r: int, row: int, col: int) -> bool:
             start = np.array(pixel_to_world(row, col, hm.bounds, hm.resolution))
