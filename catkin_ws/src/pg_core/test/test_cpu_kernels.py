@@ -13,6 +13,7 @@ from pg_core.cpu_kernels import (
     OPENBLAS_CORE,
     OPT_OUT,
     cpu_flags,
+    kernels_in_effect,
     pin_cpu_kernels,
     pinned_variables,
 )
@@ -27,6 +28,17 @@ def test_the_pin_needs_an_x86_64_cpu_with_avx2_and_fma():
     assert pinned_variables(AVX2, "AMD64")
     assert pinned_variables(AVX2 - {"fma"}, "x86_64") == {}  # the Haswell kernels would not run
     assert pinned_variables(AVX2, "aarch64") == {}
+
+
+def test_the_kernels_in_effect_are_named_pinned_or_native():
+    env: dict[str, str] = {}
+    assert kernels_in_effect(env, flags=AVX2, machine="x86_64") == "native"
+    pin_cpu_kernels(env, flags=AVX2, machine="x86_64")
+    assert kernels_in_effect(env, flags=AVX2, machine="x86_64") == "pinned"
+    assert kernels_in_effect({**env, OPT_OUT: "1"}, flags=AVX2, machine="x86_64") == "native"
+    mine = {**env, "OPENBLAS_CORETYPE": "SkylakeX"}
+    assert kernels_in_effect(mine, flags=AVX2, machine="x86_64") == "native (OPENBLAS_CORETYPE=SkylakeX)"
+    assert kernels_in_effect({}, flags={"sse3"}, machine="x86_64") == "pinned"  # nothing to pin on this CPU
 
 
 def test_a_variable_the_user_set_is_kept_and_the_opt_out_sets_nothing():

@@ -106,3 +106,18 @@ def test_links_are_followed_and_an_unfinished_run_reads_its_journal(two_policies
     _write(linked / "copy", [_trial("packed/case01", 1000000, True, 1, 1, 2)])  # the scene in a second folder
     with pytest.raises(ValueError, match="scene packed/case01 appears in two output folders"):
         load_policy("linked", linked)
+
+
+def test_runs_of_different_cpu_kernels_are_flagged(two_policies):
+    for name, kernels in (("good", "pinned"), ("weak", "native")):
+        for results in (two_policies / name).glob("*/results.json"):
+            doc = json.loads(results.read_text())
+            results.write_text(json.dumps({**doc, "config": {"cpu_kernels": kernels}}))
+    good, weak = load_policy("good", two_policies / "good"), load_policy("weak", two_policies / "weak")
+    assert good.kernels == {"pinned"} and weak.kernels == {"native"}
+    assert "CPU kernels differ between the runs (good: pinned; weak: native)" in markdown([good, weak])
+    assert "CPU kernels differ" not in markdown([good, good])
+    results = two_policies / "weak" / "packed" / "results.json"  # one from before kernels were recorded
+    results.write_text(json.dumps({"trials": json.loads(results.read_text())["trials"]}))
+    old = load_policy("old", two_policies / "weak")
+    assert old.kernels == {"not recorded"} and "CPU kernels differ" not in markdown([good, old])

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
+from pg_core.cpu_kernels import kernels_in_effect
 from pg_learning.environment.sim_env import StepResult
 from pg_learning.evaluation.runner import Limits, check_seed, expand_scenes, jitter_scene, run_trial
 from pg_policy.cli.main import main
@@ -166,6 +167,7 @@ def test_cli_heuristic_on_packed_case01(tmp_path, capsys):
     doc = json.loads((out / "results.json").read_text())
     assert doc["config"]["policy"] == "heuristic" and doc["config"]["seed"] == 1_000_000
     assert doc["config"]["sim_mode"] == "fast"
+    assert doc["config"]["cpu_kernels"] == kernels_in_effect()  # the suite pins them (conftest): "pinned" on x86-64
     assert [t["seed"] for t in doc["trials"]] == [1_000_000, 1_000_001]
     for t in doc["trials"]:
         assert t["scene"] == "packed/case01" and t["n_actions"] == len(t["actions"]) >= 1

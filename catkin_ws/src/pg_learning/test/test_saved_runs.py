@@ -5,7 +5,7 @@ import json
 import pytest
 
 from pg_learning.evaluation.report import write_results
-from pg_learning.evaluation.saved_runs import load_tree, load_trials, run_folders
+from pg_learning.evaluation.saved_runs import load_tree, load_trials, run_config, run_folders
 from pg_policy.target_loop.records import TrialRecord
 
 
@@ -27,6 +27,15 @@ def test_results_json_wins_over_the_journal(tmp_path):
     assert len(load_trials(tmp_path / "run")) == 5 and len(load_trials(tmp_path / "run" / "results.json")) == 5
     with pytest.raises(FileNotFoundError, match="not a `pushgrasp eval` output folder"):
         load_trials(tmp_path)
+
+
+def test_the_run_config_is_results_json_s_else_the_journal_s_key(tmp_path):
+    _journal(tmp_path / "run", _trials("novel-10", range(3)))
+    assert run_config(tmp_path / "run") == {"policy": "x"}
+    write_results(tmp_path / "run", _trials("novel-10", range(3)), {"policy": "y", "cpu_kernels": "pinned"})
+    assert run_config(tmp_path / "run") == {"policy": "y", "cpu_kernels": "pinned"}
+    with pytest.raises(FileNotFoundError, match="not a `pushgrasp eval` output folder"):
+        run_config(tmp_path)
 
 
 def test_folders_at_any_depth_links_followed_each_once(tmp_path):

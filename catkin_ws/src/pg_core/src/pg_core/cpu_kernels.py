@@ -15,7 +15,9 @@ other machines'.
 The entry points call it before anything imports numpy: the `pushgrasp` CLI, the ROS nodes and the test suite's
 conftest; so do the packages that play trials, pg_sim and pg_learning, when they are imported (their `python -m`
 tools then run pinned; a program that imported numpy before them keeps its native kernels). A variable the user
-has set is kept; PG_NATIVE_KERNELS=1 turns the pin off (each library's own choice).
+has set is kept; PG_NATIVE_KERNELS=1 turns the pin off (each library's own choice). `kernels_in_effect` names
+the choice a process runs with ("pinned" or "native ..."), which `pushgrasp eval` records in results.json so that
+`pushgrasp compare` can say when it pairs runs of different kernels.
 Importing this module imports neither numpy nor torch.
 """
 
@@ -24,7 +26,7 @@ from __future__ import annotations
 import os
 import platform
 import sys
-from collections.abc import MutableMapping, Set
+from collections.abc import Mapping, MutableMapping, Set
 from functools import lru_cache
 
 OPENBLAS_CORE = "Haswell"  # OpenBLAS's AVX2 + FMA kernels, which every CPU pinned here runs
@@ -77,3 +79,18 @@ def pin_cpu_kernels(environ: MutableMapping[str, str] | None = None, flags: Set[
         warnings.warn("pg_core.cpu_kernels.pin_cpu_kernels called after numpy was imported: this process keeps "
                       "its native kernels", RuntimeWarning, stacklevel=2)
     return added
+
+
+def kernels_in_effect(environ: Mapping[str, str] | None = None, flags: Set[str] | None = None,
+                      machine: str | None = None) -> str:
+    """"pinned" when `environ` (os.environ) holds every variable `pin_cpu_kernels` sets on this CPU, with its pinned
+    value (also where the CPU has none to pin); else "native", followed in parentheses by the pinning variables set
+    to other values (a user's choice, e.g. "native (OPENBLAS_CORETYPE=SkylakeX)")."""
+    env = os.environ if environ is None else environ
+    wanted = pinned_variables(cpu_flags() if flags is None else flags, platform.machine() if machine is None
+                              else machine)
+    if env.get(OPT_OUT, "") != "1" and all(env.get(k) == v for k, v in wanted.items()):
+        return "pinned"
+    names = ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES", "ONEDNN_MAX_CPU_ISA")
+    other = [f"{k}={env[k]}" for k in names if k in env and env[k] != wanted.get(k)]
+    return "native" + (f" ({', '.join(other)})" if other else "")

@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from pg_core.cpu_kernels import kernels_in_effect
 from pg_core.seeds import MIN_EVAL_SEED
 from pg_learning.evaluation.runner import DEFAULT_JITTER_XY, DEFAULT_JITTER_YAW, DEFAULT_SEED
 from pg_learning.evaluation.target_by import COLOUR, TARGET_BY, check_target_by
@@ -167,7 +168,7 @@ def _run(args: argparse.Namespace) -> int:
         "geometry_config": str(geometry.path), "primitives": asdict(geometry.primitives),
         "model_sha256": file_digests([str(p) for p in opts.models]),
         "git_commit": git_commit(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "workers": workers,
-        "host_cpus": os.cpu_count(), "ray": args.ray_address,
+        "host_cpus": os.cpu_count(), "ray": args.ray_address, "cpu_kernels": kernels_in_effect(),
     }
     if args.target_by != COLOUR or args.colours != UNIQUE:  # absent by default: earlier journals stay resumable
         config.update(target_by=args.target_by, colours=args.colours)

@@ -9,7 +9,8 @@ Families (FAMILIES, matched by scene-name prefix): the protocol's packed (packed
 (novel-N) and mixed (mixed-N), and the training families (train-*, pooled in one family, no targets: for choosing on
 training seeds). Family rows pool every trial of the family (pg_policy.target_loop.metrics.summarize).
 C and GS in percent, MN in pushes per completed trial, each mean ± standard error over trials. Trials that ended in an
-error (termination "error") are failures in C like any other; the policy table counts them.
+error (termination "error") are failures in C like any other; the policy table counts them. When the runs recorded
+different CPU kernels (results.json's config "cpu_kernels", pg_core.cpu_kernels), the report says so above the tables.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pg_learning.evaluation.paired import paired
-from pg_learning.evaluation.saved_runs import load_trials, run_folders
+from pg_learning.evaluation.saved_runs import load_trials, run_config, run_folders
 from pg_policy.target_loop.metrics import Stat, fmt, scene_metrics
 from pg_policy.target_loop.records import TrialRecord
 
@@ -68,10 +69,14 @@ def family_of(scene: str) -> str:
     raise ValueError(f"scene {scene!r} is in none of the report's families {FAMILIES}")
 
 
+UNRECORDED = "not recorded"  # the CPU kernels of a run whose results.json predates them (or of an unfinished run)
+
+
 @dataclass
 class PolicyResults:
     name: str
     trials: dict[str, list[TrialRecord]]  # scene -> its trials
+    kernels: frozenset[str] = frozenset()  # the CPU kernels its runs recorded (pg_core.cpu_kernels), UNRECORDED
 
     def family_trials(self, family: str) -> list[TrialRecord]:
         return [t for s, ts in self.trials.items() if family_of(s) == family for t in ts]
@@ -86,6 +91,7 @@ def load_policy(name: str, folder: Path) -> PolicyResults:
     except FileNotFoundError:
         raise FileNotFoundError(f"{name}: no results.json or trials.jsonl under {folder}") from None
     trials: dict[str, list[TrialRecord]] = {}
+    kernels = frozenset(str(run_config(f).get("cpu_kernels", UNRECORDED)) for f in folders)
     for f in folders:
         per_folder: dict[str, list[TrialRecord]] = {}
         for t in load_trials(f):
@@ -94,7 +100,7 @@ def load_policy(name: str, folder: Path) -> PolicyResults:
             if scene in trials:
                 raise ValueError(f"{name}: scene {scene} appears in two output folders (last: {f})")
             trials[scene] = ts
-    return PolicyResults(name, trials)
+    return PolicyResults(name, trials, kernels)
 
 
 def _cells(m: dict[str, Stat]) -> str:
@@ -170,6 +176,11 @@ def markdown(policies: Sequence[PolicyResults], check: str | None = None) -> str
     out += [f"| {p.name} | {', '.join(sorted({str(len(ts)) for ts in p.trials.values()}))} | "
             f"{sum(t.termination == 'error' for ts in p.trials.values() for t in ts)} |" for p in policies]
     out.append("")
+    recorded = {k for p in policies for k in p.kernels if k != UNRECORDED}
+    if len(recorded) > 1:
+        out += ["CPU kernels differ between the runs (" + "; ".join(f"{p.name}: {', '.join(sorted(p.kernels))}"
+                for p in policies) + "): their trials part as another machine's do, so paired trials compare "
+                "policies less closely (docs/RESULTS.md, \"One set of CPU kernels\").", ""]
     for fam in FAMILIES:
         if any(p.family_trials(fam) for p in policies):
             out += [f"### {fam}", ""] + family_table(policies, fam)

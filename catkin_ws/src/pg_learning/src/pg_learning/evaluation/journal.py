@@ -20,8 +20,9 @@ from typing import Any
 from pg_policy.target_loop.records import TrialRecord
 
 JOURNAL = "trials.jsonl"
-# the config entries of `pushgrasp eval` that do not decide outcomes (pg_learning.cli.eval)
-VOLATILE = ("git_commit", "started", "workers", "host_cpus", "wall_s", "ray", "resumed_trials")
+# the config entries of `pushgrasp eval` that do not decide outcomes (pg_learning.cli.eval); cpu_kernels decides them
+# only as another machine does (pg_core.cpu_kernels), so a run resumed with other kernels keeps its finished trials
+VOLATILE = ("git_commit", "started", "workers", "host_cpus", "wall_s", "ray", "resumed_trials", "cpu_kernels")
 
 
 class JournalMismatch(ValueError):

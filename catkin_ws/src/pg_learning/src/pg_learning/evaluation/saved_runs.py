@@ -39,6 +39,18 @@ def load_trials(path: Path) -> list[TrialRecord]:
     return [record_from_dict(t) for t in doc["trials"]]
 
 
+def run_config(path: Path) -> dict:
+    """The settings of an output folder's run: results.json's "config", else its journal's run key (which leaves
+    out the volatile entries, pg_learning.evaluation.journal.VOLATILE). Raises FileNotFoundError when the folder
+    holds neither."""
+    path = Path(path)
+    if (path / RESULTS).is_file():
+        return dict(json.loads((path / RESULTS).read_text(encoding="utf-8")).get("config", {}))
+    if (path / JOURNAL).is_file():
+        return read_journal(path / JOURNAL)[0]
+    raise FileNotFoundError(f"{path}: no {RESULTS} or {JOURNAL} (not a `pushgrasp eval` output folder)")
+
+
 def run_folders(path: Path) -> list[Path]:
     """The output folders at or below `path`, in path order, following symbolic links (a folder reached twice, by
     a link or a link loop, counts once). Raises FileNotFoundError when there is none."""
