@@ -5,7 +5,7 @@ import json
 import pytest
 
 from pg_learning.evaluation.report import write_results
-from pg_learning.evaluation.saved_runs import load_tree, load_trials, run_config, run_folders
+from pg_learning.evaluation.saved_runs import load_run, load_tree, load_trials, run_folders
 from pg_policy.target_loop.records import TrialRecord
 
 
@@ -29,13 +29,14 @@ def test_results_json_wins_over_the_journal(tmp_path):
         load_trials(tmp_path)
 
 
-def test_the_run_config_is_results_json_s_else_the_journal_s_key(tmp_path):
+def test_the_run_settings_are_results_json_s_else_the_journal_s_key(tmp_path):
     _journal(tmp_path / "run", _trials("novel-10", range(3)))
-    assert run_config(tmp_path / "run") == {"policy": "x"}
+    assert load_run(tmp_path / "run")[0] == {"policy": "x"}
     write_results(tmp_path / "run", _trials("novel-10", range(3)), {"policy": "y", "cpu_kernels": "pinned"})
-    assert run_config(tmp_path / "run") == {"policy": "y", "cpu_kernels": "pinned"}
+    config, trials = load_run(tmp_path / "run")
+    assert config == {"policy": "y", "cpu_kernels": "pinned"} and len(trials) == 3
     with pytest.raises(FileNotFoundError, match="not a `pushgrasp eval` output folder"):
-        run_config(tmp_path)
+        load_run(tmp_path)
 
 
 def test_folders_at_any_depth_links_followed_each_once(tmp_path):

@@ -34,6 +34,7 @@ NUMPY_AVX512 = ("AVX512F", "AVX512CD", "AVX512_KNL", "AVX512_KNM", "AVX512_SKX",
                 "AVX512_ICL")  # numpy 1.26's AVX-512 dispatch targets (numpy.core._multiarray_umath.__cpu_dispatch__)
 ONEDNN_ISA = "AVX2"  # the highest instruction set torch's oneDNN convolutions may use
 NEEDED_FLAGS = ("avx2", "fma")  # /proc/cpuinfo flags the pinned kernels need
+PIN_VARIABLES = ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES", "ONEDNN_MAX_CPU_ISA")  # what the pin sets
 OPT_OUT = "PG_NATIVE_KERNELS"  # set to 1: leave the libraries' own kernel choice
 
 
@@ -56,8 +57,7 @@ def pinned_variables(flags: Set[str], machine: str) -> dict[str, str]:
     (platform.machine()); empty where the pinned kernels would not run (not x86-64, or no AVX2 and FMA)."""
     if machine.lower() not in ("x86_64", "amd64") or not all(f in flags for f in NEEDED_FLAGS):
         return {}
-    return {"OPENBLAS_CORETYPE": OPENBLAS_CORE, "NPY_DISABLE_CPU_FEATURES": " ".join(NUMPY_AVX512),
-            "ONEDNN_MAX_CPU_ISA": ONEDNN_ISA}
+    return dict(zip(PIN_VARIABLES, (OPENBLAS_CORE, " ".join(NUMPY_AVX512), ONEDNN_ISA), strict=True))
 
 
 def pin_cpu_kernels(environ: MutableMapping[str, str] | None = None, flags: Set[str] | None = None,
@@ -91,6 +91,5 @@ def kernels_in_effect(environ: Mapping[str, str] | None = None, flags: Set[str] 
                               else machine)
     if env.get(OPT_OUT, "") != "1" and all(env.get(k) == v for k, v in wanted.items()):
         return "pinned"
-    names = ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES", "ONEDNN_MAX_CPU_ISA")
-    other = [f"{k}={env[k]}" for k in names if k in env and env[k] != wanted.get(k)]
+    other = [f"{k}={env[k]}" for k in PIN_VARIABLES if k in env and env[k] != wanted.get(k)]
     return "native" + (f" ({', '.join(other)})" if other else "")

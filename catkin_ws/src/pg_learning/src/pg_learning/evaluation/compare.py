@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pg_learning.evaluation.paired import paired
-from pg_learning.evaluation.saved_runs import load_trials, run_config, run_folders
+from pg_learning.evaluation.saved_runs import load_run, run_folders
 from pg_policy.target_loop.metrics import Stat, fmt, scene_metrics
 from pg_policy.target_loop.records import TrialRecord
 
@@ -91,16 +91,18 @@ def load_policy(name: str, folder: Path) -> PolicyResults:
     except FileNotFoundError:
         raise FileNotFoundError(f"{name}: no results.json or trials.jsonl under {folder}") from None
     trials: dict[str, list[TrialRecord]] = {}
-    kernels = frozenset(str(run_config(f).get("cpu_kernels", UNRECORDED)) for f in folders)
+    kernels: set[str] = set()
     for f in folders:
+        config, records = load_run(f)
+        kernels.add(str(config.get("cpu_kernels", UNRECORDED)))
         per_folder: dict[str, list[TrialRecord]] = {}
-        for t in load_trials(f):
+        for t in records:
             per_folder.setdefault(t.scene, []).append(t)
         for scene, ts in per_folder.items():
             if scene in trials:
                 raise ValueError(f"{name}: scene {scene} appears in two output folders (last: {f})")
             trials[scene] = ts
-    return PolicyResults(name, trials, kernels)
+    return PolicyResults(name, trials, frozenset(kernels))
 
 
 def _cells(m: dict[str, Stat]) -> str:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
+from typing import Any
 
 from pg_learning.evaluation.journal import JOURNAL, read_journal, record_from_dict
 from pg_policy.target_loop.records import TrialRecord
@@ -23,32 +24,26 @@ def is_run_folder(path: Path) -> bool:
     return (path / RESULTS).is_file() or (path / JOURNAL).is_file()
 
 
-def load_trials(path: Path) -> list[TrialRecord]:
-    """The trials of a results.json written by `pushgrasp eval`, or of an output folder (results.json, else the
-    finished trials in trials.jsonl). Raises FileNotFoundError when there is neither, KeyError or ValueError for a
-    file that is not such a record."""
+def load_run(path: Path) -> tuple[dict[str, Any], list[TrialRecord]]:
+    """(settings, trials) of a results.json written by `pushgrasp eval`, or of an output folder (results.json, else
+    its journal: the run key, which leaves out the volatile entries of pg_learning.evaluation.journal.VOLATILE, and
+    the finished trials). Each file is read once. Raises FileNotFoundError when there is neither, KeyError or
+    ValueError for a file that is not such a record."""
     path = Path(path)
     if path.is_dir():
         if (path / RESULTS).is_file():
             path = path / RESULTS
         elif (path / JOURNAL).is_file():
-            return read_journal(path / JOURNAL)[1]
+            return read_journal(path / JOURNAL)
         else:
             raise FileNotFoundError(f"{path}: no {RESULTS} or {JOURNAL} (not a `pushgrasp eval` output folder)")
     doc = json.loads(path.read_text(encoding="utf-8"))
-    return [record_from_dict(t) for t in doc["trials"]]
+    return dict(doc.get("config", {})), [record_from_dict(t) for t in doc["trials"]]
 
 
-def run_config(path: Path) -> dict:
-    """The settings of an output folder's run: results.json's "config", else its journal's run key (which leaves
-    out the volatile entries, pg_learning.evaluation.journal.VOLATILE). Raises FileNotFoundError when the folder
-    holds neither."""
-    path = Path(path)
-    if (path / RESULTS).is_file():
-        return dict(json.loads((path / RESULTS).read_text(encoding="utf-8")).get("config", {}))
-    if (path / JOURNAL).is_file():
-        return read_journal(path / JOURNAL)[0]
-    raise FileNotFoundError(f"{path}: no {RESULTS} or {JOURNAL} (not a `pushgrasp eval` output folder)")
+def load_trials(path: Path) -> list[TrialRecord]:
+    """The trials of `load_run(path)`."""
+    return load_run(path)[1]
 
 
 def run_folders(path: Path) -> list[Path]:
