@@ -41,3 +41,48 @@ def test_bad_specs_are_refused_naming_the_field(make, field):
 def test_specs_the_heightmap_refuses_name_the_field(spec, field):
     with pytest.raises(ValueError, match=field.replace(".", r"\.")):
         TargetFollower(spec).mask(_flat())
+
+
+def _labels() -> np.ndarray:
+    """Segments of a 40 x 40 grid: 1, two look-alikes side by side in one segment (rows 0-9, cols 0-19 and
+    20-39); 2, a ring around 3, its raised hub (rows 20-39)."""
+    labels = np.zeros((40, 40), np.int32)
+    labels[0:10, 0:40] = 1
+    labels[20:40, 0:20] = 2
+    labels[26:34, 6:14] = 3
+    return labels
+
+
+def test_a_mask_on_one_of_two_look_alikes_in_one_segment_names_that_one():
+    from pg_policy.target_loop.target_spec import mask_object
+
+    labels = _labels()
+    mask = np.zeros_like(labels, bool)
+    mask[0:10, 0:21] = True  # the left block, one column over the seam
+    assert np.array_equal(mask_object(labels, mask), mask)
+    mask[10:30, 0:21] = True  # a loose mask, most of it on the table (and a corner of the ring): the segment whole
+    mask[20:30, 0:21] = False
+    assert np.array_equal(mask_object(labels, mask), labels == 1)
+
+
+def test_a_mask_over_most_of_segments_takes_them_whole():
+    from pg_policy.target_loop.target_spec import mask_object
+
+    labels = _labels()
+    mask = np.zeros_like(labels, bool)
+    mask[21:39, 1:20] = True  # ring and hub, a ragged border short of the ring's edge
+    assert np.array_equal(mask_object(labels, mask), np.isin(labels, (2, 3)))
+    mask[10:12, 0:5] = True  # a few table cells: left out
+    assert np.array_equal(mask_object(labels, mask), np.isin(labels, (2, 3)))
+
+
+def test_a_mask_spread_thinly_names_the_segment_holding_most_of_it():
+    from pg_policy.target_loop.target_spec import mask_object
+
+    labels = np.repeat(np.arange(1, 6, dtype=np.int32), 8)[None, :].repeat(40, axis=0)  # five stripes, 320 cells each
+    mask = np.zeros_like(labels, bool)
+    for k, cells in enumerate((4, 4, 4, 4, 5)):  # no stripe holds a quarter of the mask, the last the most
+        mask[0:cells, 8 * k] = True
+    assert np.array_equal(mask_object(labels, mask), labels == 5)
+    with pytest.raises(ValueError, match=r"MaskTarget\.mask covers no object"):
+        mask_object(np.where(labels == 1, 0, labels), labels == 1)

@@ -12,8 +12,10 @@ A request names its target in one of three ways:
   (pg_policy.models.click_segmentation.ClickSegmentation.join_clicked); on later
   ones pg_policy.perception.target_tracker.TargetTracker keeps it on the same object, the point's cell its anchor
   (the part of the first mask that stays when a look-alike beside it moves away);
-- `MaskTarget(mask)`: the object a (H, W) bool mask over the heightmap grid mostly covers; on the first
-  observation the mask is refined to the object segment holding most of its cells, then tracked as a point is.
+- `MaskTarget(mask)`: the object a (H, W) bool mask over the heightmap grid covers; on the first observation the
+  mask is refined by the segmentation (`mask_object`): the segments it mostly covers are taken whole, and where it
+  covers only a part of the segment that holds most of it (look-alikes of one colour and height side by side are
+  one segment) that part; then it is tracked as a point is.
 
 `TargetFollower(spec, push_length)` turns the spec plus successive heightmaps (`mask(hm)`) into the target masks;
 `acted(...)` after each action predicts where an executed push carried the target (pg_policy.perception.push_shift)
@@ -41,6 +43,10 @@ from pg_policy.perception.necks import cut_at_neck
 from pg_policy.perception.push_shift import push_shift
 from pg_policy.perception.segmentation import centred_on, segment_at, segment_objects
 from pg_policy.perception.target_tracker import TargetTracker, Track
+
+MASK_WHOLE_SHARE = 0.75  # a mask that covers this share of a segment names the segment whole
+MASK_PART_SHARE = 0.25  # ... and one of whose object cells this share lie in a segment names its part there
+MASK_TABLE_SHARE = 0.5  # ... unless this share of its cells is table: a loose mask names the segment whole
 
 
 @dataclass(frozen=True)
@@ -71,7 +77,7 @@ class PointTarget:
 
 @dataclass(frozen=True, eq=False)
 class MaskTarget:
-    """The object that (H, W) bool `mask` over the heightmap grid mostly covers."""
+    """The object that (H, W) bool `mask` over the heightmap grid covers (`mask_object`)."""
 
     mask: np.ndarray = field(repr=False)
 
@@ -117,11 +123,30 @@ def first_mask(hm: Heightmap, target: PointTarget | MaskTarget, segmenter: str =
     mask = np.asarray(target.mask).astype(bool)
     if mask.shape != labels.shape:
         raise ValueError(f"MaskTarget.mask shape {mask.shape} differs from the heightmap's {labels.shape}")
+    return mask_object(labels, mask)
+
+
+def mask_object(labels: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the object a mask names, from the (H, W) int segment `labels` (0: table) and the (H, W) bool
+    `mask`. A segment the mask covers MASK_WHOLE_SHARE of is taken whole (the segmentation's edges replace a
+    projected mask's ragged ones). A segment holding MASK_PART_SHARE of the mask's object cells, of which the mask
+    covers less, is taken as far as the mask covers it: look-alikes of one colour and height side by side are one
+    segment, and the mask names one of them; but a loose mask (MASK_TABLE_SHARE of its cells on the table) names
+    that segment whole. Failing both (the mask spread thinly over several segments), the segment holding most of
+    its cells (ties: the lower label). Raises ValueError naming MaskTarget.mask when it covers no object cell."""
     counts = np.bincount(labels[mask], minlength=int(labels.max()) + 1)
     counts[0] = 0
     if counts.max() == 0:
         raise ValueError("MaskTarget.mask covers no object: all its cells are table or invalid")
-    return labels == int(np.argmax(counts))  # ties: the lower label (deterministic)
+    sizes = np.bincount(labels.ravel(), minlength=counts.size)
+    loose = counts.sum() <= (1.0 - MASK_TABLE_SHARE) * mask.sum()
+    out = np.zeros_like(mask)
+    for label in np.nonzero(counts)[0]:
+        if counts[label] >= MASK_WHOLE_SHARE * sizes[label]:
+            out |= labels == label
+        elif counts[label] >= MASK_PART_SHARE * counts.sum():
+            out |= labels == label if loose else mask & (labels == label)
+    return out if out.any() else labels == int(np.argmax(counts))
 
 
 class TargetFollower:
