@@ -11,12 +11,14 @@ that runs the replay) and scores every mask against the ground truth: the share 
 (steps where the target shows MIN_VISIBLE_CELLS or more, as the evaluation counts them) and, at the recorded
 grasps, the share whose mask reaches IoU 0.5. The actions are the recorded ones, so a replay measures the tracker on
 the trajectories of the code that recorded them; a closed-loop evaluation decides. Two replays of the same folder
-list the steps whose masks differ (`--against`).
+list the steps whose masks differ (`--against`). `--target-by mask` names the target by the simulator's first-view
+mask instead of the recorded click; `--known-shift` tells the tracker where each push really carried the target.
 
     python -m pg_learning.evaluation.track_replay record --scenes packed/case05 --seed 5000 --trials 10 \
         --allow-train-seeds --out OUT/seq
     python -m pg_learning.evaluation.track_replay replay OUT/seq --save OUT/seq.replay.json
     python -m pg_learning.evaluation.track_replay replay OUT/seq --against OUT/seq.replay.json
+    python -m pg_learning.evaluation.track_replay replay OUT/seq --target-by mask --known-shift
 
 Frames and units: the heightmap grid of pg_core.heightmap; action places in metres in `world`, yaw in radians.
 """
@@ -33,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from pg_core.heightmap import Heightmap
-from pg_learning.evaluation.target_by import POINT, TrialTarget
+from pg_learning.evaluation.target_by import MASK, POINT, TrialTarget
 from pg_policy.target_loop.metrics import MIN_VISIBLE_CELLS
 
 FOUND_IOU, GRASP_IOU = 0.7, 0.5
@@ -138,14 +140,27 @@ class _Result:
         self.refused = refused
 
 
-def replay_trial(path: Path, push_length: float) -> dict[str, Any]:
+def true_shift(before: np.ndarray, after: np.ndarray, resolution: float) -> tuple[float, float] | None:
+    """(dx, dy) m in `world`: how far the centroid of the ground-truth target mask moved from `before` to `after`
+    ((H, W) bool, rows along y, columns along x); None when either shows fewer than MIN_VISIBLE_CELLS cells."""
+    if before.sum() < MIN_VISIBLE_CELLS or after.sum() < MIN_VISIBLE_CELLS:
+        return None
+    (r0, c0), (r1, c1) = (np.argwhere(m).mean(axis=0) for m in (before, after))
+    return float((c1 - c0) * resolution), float((r1 - r0) * resolution)
+
+
+def replay_trial(path: Path, push_length: float, target_by: str = POINT, known_shift: bool = False) -> dict[str, Any]:
     """The tracker's masks over one recorded trial: scene, seed, per step IoU (None: nothing to score), mask digest,
-    whether the target showed enough to count, whether the step was a grasp."""
+    whether the target showed enough to count, whether the step was a grasp. target_by: how the first view names
+    the target (POINT: a click at its centre, MASK: the simulator's mask). known_shift: after each executed push the
+    tracker is told where the target went (`true_shift` of the recorded ground truth) instead of the displacement
+    the push predicts: what a tracker that watched the push could know at best."""
     z = np.load(path)
     meta = json.loads(str(z["meta"]))
-    target = TrialTarget(POINT, push_length)
+    target = TrialTarget(target_by, push_length)
     steps = []
-    for t in range(z["height"].shape[0]):
+    frames = z["height"].shape[0]
+    for t in range(frames):
         hm = Heightmap(z["color"][t], z["height"][t], z["valid"][t], meta["resolution"], z["bounds"])
         mask = target.observe(hm, z["truth"][t])
         view = target.view
@@ -155,6 +170,9 @@ def replay_trial(path: Path, push_length: float) -> dict[str, Any]:
         if t < len(z["actions"]):
             a = z["actions"][t]
             target.acted(_Decision("push" if a[0] > 0.5 else "grasp", a[1], a[2], a[3]), _Result(a[4] < 0.5))
+            if known_shift and a[0] > 0.5 and a[4] > 0.5 and t + 1 < frames and target.follower is not None:
+                shift = true_shift(z["truth"][t], z["truth"][t + 1], meta["resolution"])
+                target.follower.shift = shift if shift is not None else target.follower.shift
     return {"scene": meta["scene"], "seed": meta["seed"], "steps": steps}
 
 
@@ -182,6 +200,12 @@ def main(argv: list[str] | None = None) -> int:
     rep.add_argument("folder", type=Path, help="a folder written by `record`")
     rep.add_argument("--save", type=Path, help="write the per-step masks' IoUs and digests here (JSON)")
     rep.add_argument("--against", type=Path, help="a saved replay of the same folder: list the steps that differ")
+    rep.add_argument("--target-by", choices=(POINT, MASK), default=POINT,
+                     help="how the first view names the target: point (a click at its centre, as recorded) or mask "
+                          "(the simulator's mask of the target)")
+    rep.add_argument("--known-shift", action="store_true",
+                     help="tell the tracker where each push really carried the target (the recorded ground truth) "
+                          "instead of the displacement the push predicts: at best what watching the push gives")
     args = ap.parse_args(argv)
     if args.command == "record":
         if args.trials < 1:
@@ -194,7 +218,7 @@ def main(argv: list[str] | None = None) -> int:
     if not files:
         ap.error(f"{args.folder}: no recorded trials (*.npz)")
     push_length = load().primitives.push_length
-    trials = [replay_trial(f, push_length) for f in files]
+    trials = [replay_trial(f, push_length, args.target_by, args.known_shift) for f in files]
     s = summary(trials)
     print(f"{args.folder}: {len(trials)} trials; IoU >= {FOUND_IOU} on {s['found']} / {s['steps']} steps "
           f"({100 * s['found'] / max(s['steps'], 1):.1f} %); at grasps IoU >= {GRASP_IOU} on "
