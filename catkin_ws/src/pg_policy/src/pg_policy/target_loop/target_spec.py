@@ -13,9 +13,9 @@ A request names its target in one of three ways:
   ones pg_policy.perception.target_tracker.TargetTracker keeps it on the same object, the point's cell its anchor
   (the part of the first mask that stays when a look-alike beside it moves away);
 - `MaskTarget(mask)`: the object a (H, W) bool mask over the heightmap grid covers; on the first observation the
-  mask is refined by the segmentation (`mask_object`): the segments it mostly covers are taken whole, and where it
-  covers only a part of the segment that holds most of it (look-alikes of one colour and height side by side are
-  one segment) that part; then it is tracked as a point is.
+  mask is refined by the segmentation (`mask_object`): a segment it covers three quarters of is taken whole, and of
+  a segment holding a quarter or more of it but covered less, the part it covers (look-alikes of one colour and
+  height side by side are one segment); then it is tracked as a point is.
 
 `TargetFollower(spec, push_length)` turns the spec plus successive heightmaps (`mask(hm)`) into the target masks;
 `acted(...)` after each action predicts where an executed push carried the target (pg_policy.perception.push_shift)
