@@ -99,14 +99,15 @@ class TrialTarget:
         self.follower: TargetFollower | None = None
         self.view: dict[str, Any] = {}
 
-    def observe(self, hm: Heightmap, truth: np.ndarray) -> np.ndarray:
+    def observe(self, hm: Heightmap, truth: np.ndarray, shift_xy: tuple[float, float] | None = None) -> np.ndarray:
         """(H, W) bool target mask of `hm` (empty: not seen); `truth` is the simulator's ground-truth target mask of
-        the same view, used to name the target in the first view and to score every mask (`view`). ValueError when
-        the first view does not show the target or its point names no object."""
+        the same view, used to name the target in the first view and to score every mask (`view`); shift_xy: the
+        target's displacement since the last view when known (TargetFollower.mask), None: the predicted one.
+        ValueError when the first view does not show the target or its point names no object."""
         truth = np.asarray(truth, dtype=bool)
         if self.follower is None:
             self.follower = TargetFollower(first_spec(self.target_by, hm, truth), self.push_length, self.segmenter)
-        mask = np.asarray(self.follower.mask(hm), dtype=bool)
+        mask = np.asarray(self.follower.mask(hm, shift_xy), dtype=bool)
         score = iou(mask, truth)
         self.view = {"iou": None if score is None else round(score, 4), "truth_cells": int(truth.sum()),
                      "unsure": bool(self.follower.unsure), "why": str(self.follower.why)}

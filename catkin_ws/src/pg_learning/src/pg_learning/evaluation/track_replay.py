@@ -159,10 +159,10 @@ def replay_trial(path: Path, push_length: float, target_by: str = POINT, known_s
     meta = json.loads(str(z["meta"]))
     target = TrialTarget(target_by, push_length)
     steps = []
-    frames = z["height"].shape[0]
-    for t in range(frames):
+    shift = None  # the target's true displacement since the last view, when known_shift and a push moved it
+    for t in range(z["height"].shape[0]):
         hm = Heightmap(z["color"][t], z["height"][t], z["valid"][t], meta["resolution"], z["bounds"])
-        mask = target.observe(hm, z["truth"][t])
+        mask = target.observe(hm, z["truth"][t], shift)
         view = target.view
         steps.append({"iou": view["iou"], "digest": hashlib.md5(np.packbits(mask).tobytes()).hexdigest()[:12],
                       "counted": view["truth_cells"] >= MIN_VISIBLE_CELLS and view["iou"] is not None,
@@ -170,9 +170,8 @@ def replay_trial(path: Path, push_length: float, target_by: str = POINT, known_s
         if t < len(z["actions"]):
             a = z["actions"][t]
             target.acted(_Decision("push" if a[0] > 0.5 else "grasp", a[1], a[2], a[3]), _Result(a[4] < 0.5))
-            if known_shift and a[0] > 0.5 and a[4] > 0.5 and t + 1 < frames and target.follower is not None:
-                shift = true_shift(z["truth"][t], z["truth"][t + 1], meta["resolution"])
-                target.follower.shift = shift if shift is not None else target.follower.shift
+            pushed = known_shift and a[0] > 0.5 and a[4] > 0.5 and t + 1 < len(z["truth"])
+            shift = true_shift(z["truth"][t], z["truth"][t + 1], meta["resolution"]) if pushed else None
     return {"scene": meta["scene"], "seed": meta["seed"], "steps": steps}
 
 
