@@ -110,14 +110,14 @@ class ArmDriver:
         return t
 
     def follow(self, path: Sequence[np.ndarray], speeds: Sequence[float] | None = None, dt: float = 1 / 240,
-               stop: Callable[[], bool] | None = None) -> bool:
+               stop: Callable[[], bool] | None = None, tick: Callable[[], None] | None = None) -> bool:
         """Track a joint-space path (first point = current joints) with linear interpolation per segment.
 
         Segment duration = max(joint distance / joint speed limit, Cartesian length / tool speed) where `speeds`
         gives the Cartesian time (s) of each segment; ends when the joints settle within 2e-3 rad. A guarded
         motion: when `stop()` turns True after a tick, the arm holds where it is and follow returns False; True
-        when the path was completed.
-        """
+        when the path was completed. `tick()`, when given, is called after every tick of the path (an observer:
+        it must not move the arm)."""
         qs = [np.asarray(q, dtype=np.float64) for q in path]
         for k in range(1, len(qs)):
             dq = qs[k] - qs[k - 1]
@@ -126,6 +126,8 @@ class ArmDriver:
             for i in range(1, n + 1):
                 self._command(qs[k - 1] + dq * (i / n), dq / duration)
                 self._tick()
+                if tick is not None:
+                    tick()
                 if stop is not None and stop():
                     self._command(self.joints(), np.zeros(6))
                     return False

@@ -63,6 +63,9 @@ class PrimitiveExecutor:
         self.prims_ = world.geometry.primitives
         self.remove_grasped_ = remove_grasped
         self.links_: dict[str, tuple[int, ...]] = {}  # arm -> its links (collision checks of kinematic transit)
+        # called after every simulation tick of a push's stroke (the closed fingers travelling along the push), e.g.
+        # to watch the scene while the push goes on; it must not move anything
+        self.stroke_watch: Callable[[], None] | None = None
 
     # -- public ------------------------------------------------------------------------------------------------
     def grasp(self, x: float, y: float, z: float, yaw: float, arm: str = "") -> PrimitiveResult:
@@ -171,7 +174,8 @@ class PrimitiveExecutor:
                 pushing, after = plan.cartesian[1:], plan.lengths[1:]
                 if not reached:  # a guarded descent stopped above the planned start: push from that height
                     pushing = self._from_here(driver, pushing)  # the stroke and the retreat
-                driver.follow(pushing[0], [length / self.prims_.push_speed for length in after[0]])
+                driver.follow(pushing[0], [length / self.prims_.push_speed for length in after[0]],
+                              tick=self.stroke_watch)
                 driver.follow(pushing[1], [length / speed for length in after[1]])
                 message = "pushed"
             executed = True

@@ -14,7 +14,7 @@ which frees all of it.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pybullet as p
@@ -55,6 +55,11 @@ def _file_stamp(path: str) -> tuple[int, int] | None:
     except OSError:
         return None
     return (st.st_size, st.st_mtime_ns)
+
+
+# Points on the robot body at or above this height (m, `world` z) are the robot's own (arms, grippers); below it
+# lies the table top, which the robot's description carries as a visual link.
+ROBOT_FILTER_Z_M = 0.002
 
 
 @dataclass(frozen=True)
@@ -222,12 +227,24 @@ class World:
             self.board.follow()
         return self.camera.capture()
 
-    def observe(self) -> Observation:
-        """Render the camera and project its cloud to the workspace heightmap."""
+    def observe(self, hide_robot: bool = False) -> Observation:
+        """Render the camera and project its cloud to the workspace heightmap. hide_robot: drop the points on the
+        robot above the table top (arms and grippers, ROBOT_FILTER_Z_M and higher; a robot self-filter), so that
+        the cells they hide hold no data (`valid` False) instead of the arm's heights; the frame returned has no
+        depth there (0)."""
         frame = self.capture()
+        if hide_robot:
+            frame = replace(frame, depth=np.where(self.robot_pixels(frame), 0.0, frame.depth).astype(np.float32))
         pts, colors = self.camera.point_cloud(frame)
         heightmap = hm.from_camera_cloud(pts, colors, self.camera.pose, self.geometry)
         return Observation(frame=frame, heightmap=heightmap, sim_time=self.sim_time)
+
+    def robot_pixels(self, frame: Frame) -> np.ndarray:
+        """(H, W) bool image mask of the robot's own pixels in `frame`: points on the robot body at or above
+        ROBOT_FILTER_Z_M in `world` (arms and grippers; the table top below it is a visual link of that body)."""
+        pts, _ = self.camera.point_cloud(frame)
+        high = hm.transform_points(pts, self.camera.pose)[:, 2] >= ROBOT_FILTER_Z_M
+        return ((frame.segmentation.reshape(-1) == self.robot.body) & high).reshape(frame.depth.shape)
 
     def object_mask(self, frame: Frame, body: int) -> np.ndarray:
         """Ground-truth (H, W) bool image mask of one object in a captured frame."""
