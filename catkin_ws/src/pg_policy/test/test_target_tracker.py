@@ -148,16 +148,22 @@ def test_update_before_start_and_a_mismatched_mask_are_refused():
         TargetTracker().start(_flat(), np.ones((3, 3), bool))
 
 
-def test_a_target_carried_beyond_reach_is_re_found_by_appearance_unless_another_looks_alike():
+def test_a_target_carried_beyond_reach_is_re_found_by_appearance_or_as_the_look_alike_nearest_its_last_place():
     tracker = TargetTracker()
     first = _blocks((20, 20, RED), (150, 150, BLUE))
     tracker.start(first, (np.asarray(first.height) > 0) & (np.arange(224)[:, None] < 100))
     track = tracker.update(_blocks((20, 170, RED), (150, 150, BLUE)))  # 30 cm away: beyond every gate
     assert track.mask[25, 175] and not track.mask[155, 155] and track.unsure and "re-found" in track.why
+    for far, near in (((150, 150), (20, 170)), ((20, 200), (100, 100))):  # two alike, nothing where it was expected
+        tracker = TargetTracker()
+        tracker.start(first, (np.asarray(first.height) > 0) & (np.arange(224)[:, None] < 100))
+        track = tracker.update(_blocks((far[0], far[1], RED), (near[0], near[1], RED)))
+        assert track.mask[near[0] + 5, near[1] + 5] and not track.mask[far[0] + 5, far[1] + 5], track.why
+        assert track.unsure and "nearest where it was last sure" in track.why
     tracker = TargetTracker()
     tracker.start(first, (np.asarray(first.height) > 0) & (np.arange(224)[:, None] < 100))
-    track = tracker.update(_blocks((20, 170, RED), (150, 150, RED)))  # two alike: not told apart without a place
-    assert not track.mask.any() and "not found" in track.why
+    track = tracker.update(_blocks((20, 20, BLUE), (20, 170, RED), (150, 150, RED)))  # something lies there: hidden
+    assert not track.mask.any() and "not found" in track.why, track.why
 
 
 def test_a_target_carried_beyond_reach_is_re_found_among_what_moved_not_in_a_look_alike_that_did_not():
@@ -170,8 +176,8 @@ def test_a_target_carried_beyond_reach_is_re_found_among_what_moved_not_in_a_loo
     assert track.mask[25, 175] and not track.mask[155, 155], track.why
     tracker = TargetTracker()
     tracker.start(first, (np.asarray(first.height) > 0) & (np.arange(224)[:, None] < 100))
-    track = tracker.update(_blocks((20, 170, RED), (150, 100, RED)))  # both moved: not told apart
-    assert not track.mask.any() and "not found" in track.why
+    track = tracker.update(_blocks((20, 170, RED), (150, 100, RED)))  # both moved: not told apart by appearance,
+    assert track.mask[25, 175] and "nearest where it was last sure" in track.why, track.why  # by where it was
 
 
 def test_a_target_left_behind_by_a_track_on_a_look_alike_is_re_found_among_all_objects_once_that_is_lifted():

@@ -62,12 +62,16 @@ the target is looked for anywhere by appearance alone among the segments that mo
 segment with UNMOVED_FRACTION of its cells unchanged since that view did not move, and the target did): the one
 whose mean of colour and form reaches REFIND_SCORE with no other within REFIND_MARGIN of it is re-found, unsure
 ("re-found by appearance");
-objects alike in colour and form are never re-found this way. When none of those is, every segment is, the unmoved
+objects alike in colour and form are not re-found this way. When none of those is, every segment is, the unmoved
 ones too (the track that last found the target followed another object, which an action then lifted or carried off,
 and the target stayed where it was: "re-found by appearance among all objects"); failing that, the one segment whose
 colour term reaches REFIND_COLOUR, every other's staying under COLOUR_FLOOR, is the target, unsure (turned onto
-another face, or merged with a neighbour of another colour: "re-found as the one object of its colour"). A found
-track is unsure when its score stays under SURE_SCORE or the runner-up comes within MARGIN of it. Objects of one
+another face, or merged with a neighbour of another colour: "re-found as the one object of its colour"). Failing
+that too, when nothing lies where the target was last found (fewer than MIN_SEARCH_CELLS object cells within
+SEARCH_RADIUS_M of its last mask, the target memory's test: the track followed a look-alike that a grasp then
+lifted, or a push carried the target off), the look-alike (colour and form reaching REFIND_SCORE) nearest where the
+target was last sure is taken, unsure ("re-found as the look-alike nearest where it was last sure"); with something
+lying there the target may be under it, and the track stays empty. A found track is unsure when its score stays under SURE_SCORE or the runner-up comes within MARGIN of it. Objects of one
 colour are told apart by form and place alone. The appearance stays that of the first view; the place follows every
 found track. A target not found leaves the place where it was last seen.
 
@@ -91,7 +95,8 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from pg_core.heightmap import Heightmap
+from pg_core.heightmap import OBJECT_HEIGHT_M, Heightmap
+from pg_core.target_mask import dilate_mask
 from pg_policy.perception.segment_scores import COLOUR_FLOOR, SURE_SCORE, UNCOVERED_MAX_M2, SegmentScorer
 from pg_policy.perception.segmentation import (
     COLOUR_EDGE,
@@ -101,6 +106,7 @@ from pg_policy.perception.segmentation import (
     segment_objects,
 )
 from pg_policy.perception.target_appearance import Appearance, describe, match_terms, partly_covered, shifted
+from pg_policy.perception.target_memory import MIN_SEARCH_CELLS, SEARCH_RADIUS_M
 from pg_policy.perception.template_cut import Template
 from pg_policy.perception.view_change import view_change
 
@@ -339,6 +345,13 @@ class TargetTracker:
         self.last_mask, self.last_hm, self.last_lab = mask.copy(), hm, lab
         self.last_labels = self._segmented[1] if self._segmented is not None and self._segmented[0] is hm else None
 
+    def _bare(self, hm: Heightmap) -> bool:
+        """Whether nothing lies where the target was last found in `hm`: fewer than MIN_SEARCH_CELLS object cells
+        within SEARCH_RADIUS_M of the last mask (the target memory's test, pg_policy.perception.target_memory)."""
+        assert self.last_mask is not None
+        near = dilate_mask(self.last_mask, hm.resolution, SEARCH_RADIUS_M)
+        return int((near & (np.asarray(hm.height) > OBJECT_HEIGHT_M)).sum()) < MIN_SEARCH_CELLS
+
     def _stayed(self, still: np.ndarray) -> np.ndarray:
         """(H, W) bool: the cells of the segments of the view the target was last found in that stayed, each with
         UNMOVED_FRACTION of its cells in `still` ((H, W) bool, `_changes`). A cell that looks unchanged in a segment
@@ -385,4 +398,14 @@ class TargetTracker:
             self.anchor = None
             return Track(mask, float(colour), True, f"re-found as the one object of its colour (colour {colour:.2f} "
                          f"form {form:.2f}; not found near its place: {why})")
+        # nothing lies where it was last found (the track followed a look-alike that a grasp lifted, or the target
+        # was carried off): of the objects alike to it, the one nearest where it was last sure
+        alike = [s for s in moved + still if s[0] >= REFIND_SCORE]
+        if alike and self.sure_mask is not None and self._bare(hm):
+            sure = describe(hm, self.sure_mask, lab).centroid
+            score, colour, form, mask = min(alike, key=lambda s: math.dist(describe(hm, s[3], lab).centroid, sure))
+            self._found(hm, mask, lab)
+            self.anchor = None
+            return Track(mask, float(score), True, f"re-found as the look-alike nearest where it was last sure "
+                         f"{score:.2f} (colour {colour:.2f} form {form:.2f}; not found near its place: {why})")
         return Track(np.zeros_like(self.last_mask), 0.0, True, f"not found: {why}")
