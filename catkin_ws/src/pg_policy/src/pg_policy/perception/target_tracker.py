@@ -71,8 +71,9 @@ that too, when nothing lies where the target was last found (fewer than MIN_SEAR
 SEARCH_RADIUS_M of its last mask, the target memory's test: the track followed a look-alike that a grasp then
 lifted, or a push carried the target off), the look-alike (colour and form reaching REFIND_SCORE) nearest where the
 target was last sure is taken, unsure ("re-found as the look-alike nearest where it was last sure"); with something
-lying there the target may be under it, and the track stays empty. A found track is unsure when its score stays under SURE_SCORE or the runner-up comes within MARGIN of it. Objects of one
-colour are told apart by form and place alone. The appearance stays that of the first view; the place follows every
+lying there the target may be under it, and the track stays empty. A found track is unsure when its score stays
+under SURE_SCORE or the runner-up comes within MARGIN of it. Objects of one colour are told apart by form and place
+alone. The appearance stays that of the first view; the place follows every
 found track. A target not found leaves the place where it was last seen.
 
 A target named by a point keeps that point's cell (`start`'s `anchor`) while it has not been seen to move. A first
