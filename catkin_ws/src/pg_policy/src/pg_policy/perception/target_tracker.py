@@ -73,8 +73,8 @@ lifted, or a push carried the target off), the look-alike (colour and form reach
 target was last sure is taken, unsure ("re-found as the look-alike nearest where it was last sure"); with something
 lying there the target may be under it, and the track stays empty. A found track is unsure when its score stays
 under SURE_SCORE or the runner-up comes within MARGIN of it. Objects of one colour are told apart by form and place
-alone. The appearance stays that of the first view; the place follows every
-found track. A target not found leaves the place where it was last seen.
+alone. The appearance stays that of the first view; the place follows every found track. A target not found
+leaves the place where it was last seen.
 
 A target named by a point keeps that point's cell (`start`'s `anchor`) while it has not been seen to move. A first
 mask can hold a look-alike beside the target (one colour, one height, no gap between them: one segment); when an
