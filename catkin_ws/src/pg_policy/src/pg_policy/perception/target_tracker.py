@@ -60,7 +60,8 @@ reaching FOUND_SCORE is the target, unsure ("where it was last sure"). When no s
 place (the target was carried farther than predicted, or the track followed a neighbour that was then lifted away),
 the target is looked for anywhere by appearance alone among the segments that moved since it was last found (a
 segment with UNMOVED_FRACTION of its cells unchanged since that view did not move, and the target did): the one
-whose mean of colour and form reaches REFIND_SCORE with no other within REFIND_MARGIN of it is re-found, unsure
+whose mean of colour and form reaches REFIND_SCORE (pg_policy.perception.refind) with no other within
+REFIND_MARGIN of it is re-found, unsure
 ("re-found by appearance");
 objects alike in colour and form are not re-found this way. When none of those is, every segment is, the unmoved
 ones too (the track that last found the target followed another object, which an action then lifted or carried off,
@@ -98,7 +99,8 @@ import numpy as np
 
 from pg_core.heightmap import OBJECT_HEIGHT_M, Heightmap
 from pg_core.target_mask import dilate_mask
-from pg_policy.perception.segment_scores import COLOUR_FLOOR, SURE_SCORE, UNCOVERED_MAX_M2, SegmentScorer
+from pg_policy.perception.refind import refind
+from pg_policy.perception.segment_scores import SURE_SCORE, UNCOVERED_MAX_M2, SegmentScorer
 from pg_policy.perception.segmentation import (
     COLOUR_EDGE,
     LIGHTNESS_WEIGHT,
@@ -106,7 +108,7 @@ from pg_policy.perception.segmentation import (
     lab_image,
     segment_objects,
 )
-from pg_policy.perception.target_appearance import Appearance, describe, match_terms, partly_covered, shifted
+from pg_policy.perception.target_appearance import Appearance, describe, partly_covered, shifted
 from pg_policy.perception.target_memory import MIN_SEARCH_CELLS, SEARCH_RADIUS_M
 from pg_policy.perception.template_cut import Template
 from pg_policy.perception.view_change import view_change
@@ -115,9 +117,6 @@ FOUND_SCORE = 0.45  # a best segment scoring below this is not the target: the t
 MARGIN = 0.08  # a runner-up scoring within this of the best makes the track unsure
 GATE_M = 0.12  # a segment's centroid this far (m) beyond the predicted displacement from the predicted one: not it
 PATH_FRACTIONS = (1.0, 2 / 3, 1 / 3, 0.0)  # places along a predicted displacement a moved target is scored at
-REFIND_SCORE = 0.8  # a target not found near its place is re-found where colour and form alone score this much
-REFIND_MARGIN = 0.15  # ... and no other segment comes within this of that score
-REFIND_COLOUR = 0.7  # failing that, the one segment whose colour term reaches this, every other's under COLOUR_FLOOR
 UNMOVED_FRACTION = 0.5  # a segment with this share of its cells unchanged since the target was last found: unmoved
 STAY_FRACTION = 0.85  # the target did not move when at least this fraction of its last mask is unchanged
 IN_PLACE_RATIO = 2.5  # a target in place grows by what a cover laid bare to at most this many times the reference
@@ -369,44 +368,15 @@ class TargetTracker:
         return stayed[labels]
 
     def _refind(self, hm: Heightmap, labels: np.ndarray, lab: np.ndarray, others: np.ndarray, why: str) -> Track:
-        """The target looked for anywhere by appearance (module docstring): first among the segments that moved
-        since it was last found (less than UNMOVED_FRACTION of their cells in `others`, the (H, W) bool cells of
-        other objects unchanged since that view), then among all segments; or an empty track saying `why` not."""
+        """The target looked for anywhere by appearance (module docstring; pg_policy.perception.refind), `others`
+        the (H, W) bool cells of other objects unchanged since it was last found; or an empty track saying `why`
+        not."""
         assert self.reference is not None and self.last_mask is not None
-        ref, moved, still = self.reference, [], []
-        for label in range(1, int(labels.max()) + 1):
-            seg = labels == label
-            colour, form, _, _ = match_terms(ref, describe(hm, seg, lab), seg, seg, (0.0, 0.0), self.resolution)
-            unmoved = (seg & others).sum() >= UNMOVED_FRACTION * seg.sum()
-            (still if unmoved else moved).append(((colour + form) / 2.0, colour, form, seg))
-        # the target moved (it is not where it was last found) unless that track followed another object, which an
-        # action then lifted or carried off: the target may be any object
-        for scored, among in ((moved, ""), (moved + still, " among all objects")):
-            scored.sort(key=lambda s: s[0], reverse=True)
-            if scored and scored[0][0] >= REFIND_SCORE and (len(scored) == 1 or
-                                                            scored[0][0] - scored[1][0] >= REFIND_MARGIN):
-                score, colour, form, mask = scored[0]
-                self._found(hm, mask, lab)
-                self.anchor = None
-                return Track(mask, float(score), True, f"re-found by appearance{among} {score:.2f} (colour "
-                             f"{colour:.2f} form {form:.2f}; not found near its place: {why})")
-        # a target turned onto another face, or merged with a neighbour of another colour, keeps its colour: the
-        # one segment of that colour, where no other comes near it
-        ranked = sorted(moved + still, key=lambda s: s[1], reverse=True)
-        if ranked and ranked[0][1] >= REFIND_COLOUR and (len(ranked) == 1 or ranked[1][1] < COLOUR_FLOOR):
-            _, colour, form, mask = ranked[0]
-            self._found(hm, mask, lab)
-            self.anchor = None
-            return Track(mask, float(colour), True, f"re-found as the one object of its colour (colour {colour:.2f} "
-                         f"form {form:.2f}; not found near its place: {why})")
-        # nothing lies where it was last found (the track followed a look-alike that a grasp lifted, or the target
-        # was carried off): of the objects alike to it, the one nearest where it was last sure
-        alike = [s for s in moved + still if s[0] >= REFIND_SCORE]
-        if alike and self.sure_mask is not None and self._bare(hm):
-            sure = describe(hm, self.sure_mask, lab).centroid
-            score, colour, form, mask = min(alike, key=lambda s: math.dist(describe(hm, s[3], lab).centroid, sure))
-            self._found(hm, mask, lab)
-            self.anchor = None
-            return Track(mask, float(score), True, f"re-found as the look-alike nearest where it was last sure "
-                         f"{score:.2f} (colour {colour:.2f} form {form:.2f}; not found near its place: {why})")
-        return Track(np.zeros_like(self.last_mask), 0.0, True, f"not found: {why}")
+        found = refind(self.reference, hm, labels, lab, others, self.resolution, self.sure_mask, self._bare(hm),
+                       UNMOVED_FRACTION)
+        if found is None:
+            return Track(np.zeros_like(self.last_mask), 0.0, True, f"not found: {why}")
+        mask, score, how = found
+        self._found(hm, mask, lab)
+        self.anchor = None
+        return Track(mask, score, True, f"re-found {how}; not found near its place: {why})")
