@@ -13,12 +13,17 @@ grasps, the share whose mask reaches IoU 0.5. The actions are the recorded ones,
 the trajectories of the code that recorded them; a closed-loop evaluation decides. Two replays of the same folder
 list the steps whose masks differ (`--against`). `--target-by mask` names the target by the simulator's first-view
 mask instead of the recorded click; `--known-shift` tells the tracker where each push really carried the target.
+`--segment-bound` also scores, per step, the one segment of the view (pg_policy.perception.segmentation.
+segment_objects) that matches the ground truth best (`segment_bound`): a tracker that only ever picks whole segments
+reaches IoU 0.7 on no more steps than those, and where none does, only a cut of a segment (or memory of earlier
+views) can; the report splits the steps four ways (the tracker right or not, a whole segment enough or not).
 
     python -m pg_learning.evaluation.track_replay record --scenes packed/case05 --seed 5000 --trials 10 \
         --allow-train-seeds --out OUT/seq
     python -m pg_learning.evaluation.track_replay replay OUT/seq --save OUT/seq.replay.json
     python -m pg_learning.evaluation.track_replay replay OUT/seq --against OUT/seq.replay.json
     python -m pg_learning.evaluation.track_replay replay OUT/seq --target-by mask --known-shift
+    python -m pg_learning.evaluation.track_replay replay OUT/seq --segment-bound
 
 Frames and units: the heightmap grid of pg_core.heightmap; action places in metres in `world`, yaw in radians.
 """
@@ -149,12 +154,29 @@ def true_shift(before: np.ndarray, after: np.ndarray, resolution: float) -> tupl
     return float((c1 - c0) * resolution), float((r1 - r0) * resolution)
 
 
-def replay_trial(path: Path, push_length: float, target_by: str = POINT, known_shift: bool = False) -> dict[str, Any]:
+def segment_bound(hm: Heightmap, truth: np.ndarray) -> float:
+    """The best IoU any one segment of `hm` (pg_policy.perception.segmentation.segment_objects) reaches against the
+    (H, W) bool ground-truth mask `truth`; 0.0 when no segment meets it."""
+    from pg_policy.perception.segmentation import segment_objects
+
+    truth = np.asarray(truth, bool)
+    labels = segment_objects(hm)
+    best = 0.0
+    for label in np.unique(labels[truth]):
+        if label:
+            seg = labels == label
+            best = max(best, float((seg & truth).sum()) / float((seg | truth).sum()))
+    return best
+
+
+def replay_trial(path: Path, push_length: float, target_by: str = POINT, known_shift: bool = False,
+                 bound: bool = False) -> dict[str, Any]:
     """The tracker's masks over one recorded trial: scene, seed, per step IoU (None: nothing to score), mask digest,
     whether the target showed enough to count, whether the step was a grasp. target_by: how the first view names
     the target (POINT: a click at its centre, MASK: the simulator's mask). known_shift: after each executed push the
     tracker is told where the target went (`true_shift` of the recorded ground truth) instead of the displacement
-    the push predicts: what a tracker that watched the push could know at best."""
+    the push predicts: what a tracker that watched the push could know at best. bound: each step also holds
+    `segment_iou`, the `segment_bound` of its view."""
     z = np.load(path)
     meta = json.loads(str(z["meta"]))
     target = TrialTarget(target_by, push_length)
@@ -167,6 +189,8 @@ def replay_trial(path: Path, push_length: float, target_by: str = POINT, known_s
         steps.append({"iou": view["iou"], "digest": hashlib.md5(np.packbits(mask).tobytes()).hexdigest()[:12],
                       "counted": view["truth_cells"] >= MIN_VISIBLE_CELLS and view["iou"] is not None,
                       "grasp": bool(t < len(z["actions"]) and z["actions"][t][0] < 0.5), "why": view["why"]})
+        if bound:
+            steps[-1]["segment_iou"] = round(segment_bound(hm, z["truth"][t]), 4)
         if t < len(z["actions"]):
             a = z["actions"][t]
             target.acted(_Decision("push" if a[0] > 0.5 else "grasp", a[1], a[2], a[3]), _Result(a[4] < 0.5))
@@ -175,12 +199,25 @@ def replay_trial(path: Path, push_length: float, target_by: str = POINT, known_s
     return {"scene": meta["scene"], "seed": meta["seed"], "steps": steps}
 
 
-def summary(trials: list[dict[str, Any]]) -> dict[str, float]:
-    """Steps counted and found (IoU >= FOUND_IOU), grasps counted and on the target (IoU >= GRASP_IOU)."""
+def summary(trials: list[dict[str, Any]]) -> dict[str, int]:
+    """Steps counted and found (IoU >= FOUND_IOU), grasps counted and on the target (IoU >= GRASP_IOU); where the
+    steps hold `segment_iou` (replay_trial's bound), the counted steps split by whether a whole segment reaches
+    FOUND_IOU ("segment") or not ("no_segment") and whether the tracker's mask does ("found_..."), and the first
+    views alike ("first_...")."""
     counted = [s for t in trials for s in t["steps"] if s["counted"]]
     grasps = [s for s in counted if s["grasp"]]
-    return {"steps": len(counted), "found": sum(s["iou"] >= FOUND_IOU for s in counted),
-            "grasps": len(grasps), "grasps_on_target": sum(s["iou"] >= GRASP_IOU for s in grasps)}
+    out = {"steps": len(counted), "found": sum(s["iou"] >= FOUND_IOU for s in counted),
+           "grasps": len(grasps), "grasps_on_target": sum(s["iou"] >= GRASP_IOU for s in grasps)}
+    if counted and all("segment_iou" in s for s in counted):
+        firsts = [t["steps"][0] for t in trials if t["steps"] and t["steps"][0]["counted"]]
+        for prefix, steps in (("", counted), ("first_", firsts)):
+            whole = [s for s in steps if s["segment_iou"] >= FOUND_IOU]
+            part = [s for s in steps if s["segment_iou"] < FOUND_IOU]
+            out |= {f"{prefix}segment": len(whole), f"{prefix}no_segment": len(part),
+                    f"{prefix}found_segment": sum(s["iou"] >= FOUND_IOU for s in whole),
+                    f"{prefix}found_no_segment": sum(s["iou"] >= FOUND_IOU for s in part)}
+        out["first_steps"] = len(firsts)
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -205,6 +242,9 @@ def main(argv: list[str] | None = None) -> int:
     rep.add_argument("--known-shift", action="store_true",
                      help="tell the tracker where each push really carried the target (the recorded ground truth) "
                           "instead of the displacement the push predicts: at best what watching the push gives")
+    rep.add_argument("--segment-bound", action="store_true",
+                     help="also score the one segment of each view that matches the ground truth best: how many "
+                          "steps whole segments could get right, and how many of those the tracker does")
     args = ap.parse_args(argv)
     if args.command == "record":
         if args.trials < 1:
@@ -217,11 +257,18 @@ def main(argv: list[str] | None = None) -> int:
     if not files:
         ap.error(f"{args.folder}: no recorded trials (*.npz)")
     push_length = load().primitives.push_length
-    trials = [replay_trial(f, push_length, args.target_by, args.known_shift) for f in files]
+    trials = [replay_trial(f, push_length, args.target_by, args.known_shift, args.segment_bound) for f in files]
     s = summary(trials)
     print(f"{args.folder}: {len(trials)} trials; IoU >= {FOUND_IOU} on {s['found']} / {s['steps']} steps "
           f"({100 * s['found'] / max(s['steps'], 1):.1f} %); at grasps IoU >= {GRASP_IOU} on "
           f"{s['grasps_on_target']} / {s['grasps']}")
+    if "segment" in s:
+        for prefix, what in (("", "steps"), ("first_", "first views")):
+            n = max(s[f"{prefix}segment"] + s[f"{prefix}no_segment"], 1)
+            print(f"  {what}: a whole segment reaches IoU >= {FOUND_IOU} on {s[f'{prefix}segment']} "
+                  f"({100 * s[f'{prefix}segment'] / n:.1f} %), the tracker on {s[f'{prefix}found_segment']} of "
+                  f"those; on {s[f'{prefix}no_segment']} none does, the tracker on "
+                  f"{s[f'{prefix}found_no_segment']} of those")
     if args.save:
         args.save.write_text(json.dumps(trials))
     if args.against:
