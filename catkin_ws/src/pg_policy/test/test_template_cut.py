@@ -1,6 +1,7 @@
 """pg_policy.perception.template_cut, and the tracker using it: a target lying in one segment with a look-alike of
 its colour and height is cut out by its own outline, turned as it lies, at the place the push predicts; a target
-that merely shows more of itself is not cut; small, empty or not block-like records give no template."""
+that merely shows more of itself is not cut; small, empty or not block-like records give no template; a segment
+found whole with a look-alike is cut where a seam runs between them, and not where none does."""
 
 from __future__ import annotations
 
@@ -9,8 +10,9 @@ import numpy as np
 import pytest
 
 from pg_core.heightmap import Heightmap
+from pg_policy.perception.segmentation import lab_image, segment_objects
 from pg_policy.perception.target_tracker import TargetTracker
-from pg_policy.perception.template_cut import Template, cut, look_alike_cut, placements
+from pg_policy.perception.template_cut import Template, along_seam, cut, look_alike_cut, placements, seam_cut
 
 RES = 0.002  # m per cell
 
@@ -102,3 +104,57 @@ def test_the_tracker_follows_a_target_pushed_against_a_look_alike():
     track = tracker.update(_hm(h1), (0.0, 0.06))
     assert _iou(track.mask, target1) >= 0.8, track.why
     assert "cut to its shape" in track.why
+
+
+RED, BLUE = (200, 40, 40), (40, 60, 200)
+
+
+def _disc(shape: tuple[int, int], r: int, c: int, radius: int) -> np.ndarray:
+    rows, cols = np.mgrid[: shape[0], : shape[1]]
+    return (rows - r) ** 2 + (cols - c) ** 2 <= radius**2
+
+
+def _scene(*placed: tuple[np.ndarray, float, tuple[int, int, int]]) -> Heightmap:
+    """Objects (mask, height m, RGB) on a 160 x 160 table, later ones over earlier ones."""
+    height = np.zeros((160, 160), np.float32)
+    rgb = np.full((160, 160, 3), 200, np.uint8)
+    for mask, z, colour in placed:
+        height[mask], rgb[mask] = z, colour
+    return Heightmap(rgb, height, np.ones(height.shape, bool), RES, np.array([[0.0, 0.32], [0.0, 0.32], [0.0, 0.3]]))
+
+
+@pytest.mark.parametrize("lower_m, colour, seam", [(0.001, RED, True), (0.0, (170, 34, 34), True),
+                                                    (0.0, RED, False)], ids=["height", "shade", "seamless"])
+def test_a_cut_runs_along_a_seam_only_where_the_two_differ(lower_m, colour, seam):
+    shape = (160, 160)
+    target = _disc(shape, 100, 40, 11)
+    other = _box(shape, 89, 51, 22, 22) & ~target  # a block against it, one segment with it
+    hm = _scene((other, 0.045 - lower_m, colour), (target, 0.045, RED))
+    segment = target | other
+    lab = lab_image(hm.color)
+    assert along_seam(hm, lab, target, other) is seam
+    part = seam_cut(hm, lab, segment, Template.of(target), (100.0, 40.0))
+    assert (part is not None) is seam
+    if seam:
+        assert _iou(part, target) >= 0.85
+    assert not along_seam(hm, lab, target, _box(shape, 0, 0, 5, 5))  # they do not meet
+
+
+@pytest.mark.parametrize("lower_m, cut_off", [(0.001, True), (0.0, False)], ids=["seam", "seamless"])
+def test_a_target_re_found_with_a_look_alike_in_its_segment_is_cut_off_it_along_a_seam(lower_m, cut_off):
+    shape = (160, 160)
+    target0, blue = _disc(shape, 40, 40, 11), _box(shape, 110, 100, 20, 20)
+    tracker = TargetTracker()
+    tracker.start(_scene((blue, 0.045, BLUE), (target0, 0.045, RED)), target0)
+    # carried off unseen (no push predicted) against a red block: one red segment, re-found as the one object of
+    # its colour
+    target1 = _disc(shape, 100, 40, 11)
+    other = _box(shape, 89, 51, 22, 22) & ~target1
+    hm = _scene((blue, 0.045, BLUE), (other, 0.045 - lower_m, RED), (target1, 0.045, RED))
+    assert len(np.unique(segment_objects(hm)[target1 | other])) == 1
+    track = tracker.update(hm)
+    assert "one object of its colour" in track.why
+    assert (_iou(track.mask, target1) >= 0.85) is cut_off, track.why
+    assert ("cut off along a seam" in track.why) is cut_off
+    if not cut_off:  # no seam: the segment whole, target and look-alike
+        assert (track.mask & other).sum() >= 0.9 * other.sum()

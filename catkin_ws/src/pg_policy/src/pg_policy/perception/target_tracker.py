@@ -49,9 +49,12 @@ height shares its segment with it: when no whole segment scores SURE_SCORE, or t
 SHAPE_FORM, every segment over SHAPE_RATIO times the reference's area is also scored cut to the target's outline
 (its cells in the view its form was recorded from, turned and shifted to where it fits the segment nearest the
 predicted place, standing as high as the record: pg_policy.perception.template_cut), "cut to its shape" in the
-track's note. A predicted displacement may be too long (the push met
-other objects, missed the target or turned it), so every segment is scored against the places at PATH_FRACTIONS of
-it, from the full displacement to where the target was last seen, unmoved, and keeps the best.
+track's note. A segment found or re-found whole that holds more than SHAPE_RATIO times the reference's area (a
+look-alike joined it in one segment, which the scores alone do not tell) is cut the same way when the cut runs along
+a seam (template_cut.seam_cut: a step in height or colour where the two meet; a cut through one object shows none),
+"a look-alike cut off along a seam" in the note. A predicted displacement may be too long (the push met other
+objects, missed the target or turned it), so every segment is scored against the places at PATH_FRACTIONS of it,
+from the full displacement to where the target was last seen, unmoved, and keeps the best.
 
 The score is the weighted mean (W_COLOUR, W_FORM, W_PLACE); the best segment is the target when its score reaches
 FOUND_SCORE. When none does and unsure tracks have led away from where a sure track last saw the target (onto a
@@ -100,7 +103,7 @@ import numpy as np
 from pg_core.heightmap import OBJECT_HEIGHT_M, Heightmap
 from pg_core.target_mask import dilate_mask
 from pg_policy.perception.refind import refind
-from pg_policy.perception.segment_scores import SURE_SCORE, UNCOVERED_MAX_M2, SegmentScorer
+from pg_policy.perception.segment_scores import SHAPE_RATIO, SURE_SCORE, UNCOVERED_MAX_M2, SegmentScorer
 from pg_policy.perception.segmentation import (
     COLOUR_EDGE,
     LIGHTNESS_WEIGHT,
@@ -110,7 +113,7 @@ from pg_policy.perception.segmentation import (
 )
 from pg_policy.perception.target_appearance import Appearance, describe, partly_covered, shifted
 from pg_policy.perception.target_memory import MIN_SEARCH_CELLS, SEARCH_RADIUS_M
-from pg_policy.perception.template_cut import Template
+from pg_policy.perception.template_cut import Template, seam_cut
 from pg_policy.perception.view_change import view_change
 
 FOUND_SCORE = 0.45  # a best segment scoring below this is not the target: the target is hidden
@@ -241,9 +244,11 @@ class TargetTracker:
         detail = "colour {:.2f} form {:.2f} overlap {:.2f} near {:.2f}".format(*terms)
         if best < FOUND_SCORE:
             return self._refind(hm, labels, lab, others, f"best segment scores {best:.2f} < {FOUND_SCORE} ({detail})")
+        mask, seam = self._trim(hm, mask, lab, places[0][1])
         self._found(hm, mask, lab)
         self.anchor = None  # found where it moved to: the named cell no longer marks it
         runner = scored[1][0] if len(scored) > 1 else 0.0
+        detail += seam
         if how == "merged":
             return Track(mask, float(best), True,
                          f"{where}merged with a touching object: cut to the predicted place ({detail})")
@@ -352,6 +357,19 @@ class TargetTracker:
         near = dilate_mask(self.last_mask, hm.resolution, SEARCH_RADIUS_M)
         return int((near & (np.asarray(hm.height) > OBJECT_HEIGHT_M)).sum()) < MIN_SEARCH_CELLS
 
+    def _trim(self, hm: Heightmap, mask: np.ndarray, lab: np.ndarray,
+              expected: tuple[float, float]) -> tuple[np.ndarray, str]:
+        """`mask` (a segment found whole) and "", or, when it holds more than SHAPE_RATIO times the reference's area,
+        its template_cut.seam_cut nearest `expected` (row, col) where that stands as high as the reference, and
+        "; a look-alike cut off along a seam" for the track's note."""
+        assert self.reference is not None
+        if self.template is None or self.reference.partial or mask.sum() <= SHAPE_RATIO * self.reference.area:
+            return mask, ""
+        part = seam_cut(hm, lab, mask, self.template, expected)
+        if part is None or not self._scorer().as_high(describe(hm, part, lab)):
+            return mask, ""
+        return part, "; a look-alike cut off along a seam"
+
     def _stayed(self, still: np.ndarray) -> np.ndarray:
         """(H, W) bool: the cells of the segments of the view the target was last found in that stayed, each with
         UNMOVED_FRACTION of its cells in `still` ((H, W) bool, `_changes`). A cell that looks unchanged in a segment
@@ -377,6 +395,8 @@ class TargetTracker:
         if found is None:
             return Track(np.zeros_like(self.last_mask), 0.0, True, f"not found: {why}")
         mask, score, how = found
+        sure = self.sure_mask if self.sure_mask is not None else self.last_mask
+        mask, seam = self._trim(hm, mask, lab, describe(hm, sure, lab).centroid)
         self._found(hm, mask, lab)
         self.anchor = None
-        return Track(mask, score, True, f"re-found {how}; not found near its place: {why})")
+        return Track(mask, score, True, f"re-found {how}{seam}; not found near its place: {why})")

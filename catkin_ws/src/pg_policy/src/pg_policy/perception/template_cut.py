@@ -10,6 +10,11 @@ nearest the place the target is expected at (the tracker's predicted place): the
 that placement. `look_alike_cut` keeps such a cut only where it is evidence of a look-alike: the segment meets the
 predicted mask and the cut leaves a connected piece of at least REST_MIN times the template's area (a target that
 merely shows more of itself than in its record, turned onto a larger face, leaves less).
+`seam_cut` keeps a look-alike cut only where it runs along a seam: look-alikes that touch in one segment (their
+colours and heights alike enough for the segmentation to join them) still differ across the line where they meet, by
+SEAM_HEIGHT_M in the median height or SEAM_COLOUR in the median Lab colour of the cells on either side, a few cells
+from the line; a cut through one object shows no such step (identical blocks touching seamlessly show none either:
+no view tells which one is the target).
 
 Frames and units: masks are (H, W) bool over heightmap cells (rows along y, columns along x); centroids are
 (row, col) in cells. Deterministic. Raised: ValueError for an empty template mask.
@@ -22,12 +27,16 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from pg_core.heightmap import Heightmap
 from pg_policy.perception.segmentation import solidity
 
 ANGLE_STEP_DEG = 7.5  # rotations of the template tried, over the full turn (an asymmetric outline: a triangle)
 FIT_MIN = 0.9  # a placement fits when this share of the template's cells lands on the segment
 REST_MIN = 0.8  # what the cut leaves holds a piece of at least this many times the template's area (a look-alike)
 MIN_TEMPLATE_CELLS = 40  # smaller records (a sliver) give no template: too many places fit them
+SEAM_HEIGHT_M = 0.0005  # a seam: the cells on either side of a cut differ this much in median height (m) ...
+SEAM_COLOUR = 3.0  # ... or this much in median colour (Euclidean distance in CIE Lab)
+SEAM_BAND_CELLS = (1.5, 3.5)  # ... of the cells this far (cells, exclusive, inclusive) from the other side
 MIN_SOLIDITY = 0.9  # a record that fills less of its convex hull gives no template: not a block (a part of an
 # object, a handle, a lobed shape), whose outline says little about where the rest of a segment belongs
 
@@ -126,3 +135,32 @@ def look_alike_cut(segment: np.ndarray, template: Template, expected: tuple[floa
     n, labels = cv2.connectedComponents((segment & ~part).astype(np.uint8), connectivity=8)
     sizes = np.bincount(labels.ravel(), minlength=n)[1:]
     return part if sizes.size and sizes.max() >= REST_MIN * template.area else None
+
+
+def along_seam(hm: Heightmap, lab: np.ndarray, part: np.ndarray, rest: np.ndarray) -> bool:
+    """Whether the (H, W) bool `part` and `rest` of one segment of `hm` (`lab`: its (H, W, 3) Lab image) meet along a
+    seam (module docstring): their cells SEAM_BAND_CELLS from the line where they meet (the cells on the line may
+    belong to either: a cut is placed to a cell) differ by SEAM_HEIGHT_M in median height or SEAM_COLOUR in median
+    Lab colour. False where they do not meet."""
+    part, rest = np.asarray(part, bool), np.asarray(rest, bool)
+    lo, hi = SEAM_BAND_CELLS
+    sides = []
+    for mine, theirs in ((part, rest), (rest, part)):
+        away = cv2.distanceTransform((~theirs).astype(np.uint8), cv2.DIST_L2, 3)
+        sides.append(mine & (away > lo) & (away <= hi))
+    if not sides[0].any() or not sides[1].any():
+        return False
+    height = np.asarray(hm.height)
+    step = abs(float(np.median(height[sides[0]])) - float(np.median(height[sides[1]])))
+    shade = float(np.linalg.norm(np.median(lab[sides[0]], axis=0) - np.median(lab[sides[1]], axis=0)))
+    return step >= SEAM_HEIGHT_M or shade >= SEAM_COLOUR
+
+
+def seam_cut(hm: Heightmap, lab: np.ndarray, segment: np.ndarray, template: Template,
+             expected: tuple[float, float]) -> np.ndarray | None:
+    """`look_alike_cut` of the (H, W) bool `segment` of `hm` (`lab`: its Lab image) nearest `expected` (row, col)
+    where the cut runs `along_seam` with the rest of the segment; else None."""
+    segment = np.asarray(segment, bool)
+    found = placements(segment, template)
+    part = look_alike_cut(segment, template, expected, segment, found) if found else None
+    return part if part is not None and along_seam(hm, lab, part, segment & ~part) else None
