@@ -38,10 +38,12 @@ def test_a_recorded_trial_replays_to_the_masks_it_tracked(tmp_path):
     assert main(["replay", str(tmp_path), "--target-by", "mask", "--known-shift"]) == 0
     bounded = replay_trial(tmp_path / "packed_case05_5001.npz", load().primitives.push_length, bound=True)
     assert [s["iou"] for s in bounded["steps"]] == [s["iou"] for s in replayed["steps"]]  # the tracker untouched
-    assert all(0.0 <= s["segment_iou"] <= 1.0 for s in bounded["steps"])
+    assert all(0.0 <= s["segment_iou"] <= 1.0 and s["segment"] in ("whole", "merged", "split", "mixed", "none")
+               for s in bounded["steps"])
     b = summary([bounded])
     assert b["segment"] + b["no_segment"] == b["steps"] and b["found_segment"] <= b["segment"]
     assert b["first_steps"] == 1 and b["first_segment"] + b["first_no_segment"] == 1
+    assert sum(b[f"no_segment_{k}"] for k in ("merged", "split", "mixed", "none")) == b["no_segment"]
     assert main(["replay", str(tmp_path), "--segment-bound"]) == 0
 
 
@@ -59,11 +61,13 @@ def _blocks(colour: tuple[int, int, int], gap: int) -> tuple[Heightmap, np.ndarr
 
 
 def test_the_segment_bound_is_the_best_whole_segment():
-    assert segment_bound(*_blocks((200, 40, 40), 0)) == pytest.approx(1.0)  # another colour: its own segment
-    assert segment_bound(*_blocks((128, 128, 128), 5)) == pytest.approx(1.0)  # apart: its own segment
-    assert segment_bound(*_blocks((128, 128, 128), 0)) == pytest.approx(0.5, abs=0.05)  # a seamless look-alike
+    assert segment_bound(*_blocks((200, 40, 40), 0)) == (pytest.approx(1.0), "whole")  # another colour
+    assert segment_bound(*_blocks((128, 128, 128), 5)) == (pytest.approx(1.0), "whole")  # apart
+    assert segment_bound(*_blocks((128, 128, 128), 0)) == (pytest.approx(0.5, abs=0.05), "merged")  # seamless
     hm, truth = _blocks((200, 40, 40), 0)
-    assert segment_bound(hm, np.roll(truth, 60, axis=0)) == 0.0  # nothing there
+    both = truth | np.roll(truth, 15, axis=1)  # the truth spans both blocks: each segment is a piece of it
+    assert segment_bound(hm, both) == (pytest.approx(0.5, abs=0.05), "split")
+    assert segment_bound(hm, np.roll(truth, 60, axis=0)) == (0.0, "none")  # nothing there
 
 
 def test_the_true_shift_is_the_move_of_the_ground_truth_centroid():

@@ -154,19 +154,29 @@ def true_shift(before: np.ndarray, after: np.ndarray, resolution: float) -> tupl
     return float((c1 - c0) * resolution), float((r1 - r0) * resolution)
 
 
-def segment_bound(hm: Heightmap, truth: np.ndarray) -> float:
-    """The best IoU any one segment of `hm` (pg_policy.perception.segmentation.segment_objects) reaches against the
-    (H, W) bool ground-truth mask `truth`; 0.0 when no segment meets it."""
+def segment_bound(hm: Heightmap, truth: np.ndarray) -> tuple[float, str]:
+    """(IoU, kind): the best IoU any one segment of `hm` (pg_policy.perception.segmentation.segment_objects)
+    reaches against the (H, W) bool ground-truth mask `truth`, and what that segment is: "whole" (IoU >= FOUND_IOU),
+    "merged" (it holds FOUND_IOU of the target but more besides: the target joined with others in one segment),
+    "split" (FOUND_IOU of it is the target's but it holds less of the target: the target in pieces), "mixed"
+    (neither), "none" (no segment meets it: IoU 0.0)."""
     from pg_policy.perception.segmentation import segment_objects
 
     truth = np.asarray(truth, bool)
     labels = segment_objects(hm)
-    best = 0.0
+    best, kind = 0.0, "none"
     for label in np.unique(labels[truth]):
-        if label:
-            seg = labels == label
-            best = max(best, float((seg & truth).sum()) / float((seg | truth).sum()))
-    return best
+        if not label:
+            continue
+        seg = labels == label
+        common = float((seg & truth).sum())
+        score = common / float((seg | truth).sum())
+        if score > best:
+            held, own = common / float(truth.sum()), common / float(seg.sum())
+            best = score
+            kind = ("whole" if score >= FOUND_IOU else "merged" if held >= FOUND_IOU else
+                    "split" if own >= FOUND_IOU else "mixed")
+    return best, kind
 
 
 def replay_trial(path: Path, push_length: float, target_by: str = POINT, known_shift: bool = False,
@@ -190,7 +200,8 @@ def replay_trial(path: Path, push_length: float, target_by: str = POINT, known_s
                       "counted": view["truth_cells"] >= MIN_VISIBLE_CELLS and view["iou"] is not None,
                       "grasp": bool(t < len(z["actions"]) and z["actions"][t][0] < 0.5), "why": view["why"]})
         if bound:
-            steps[-1]["segment_iou"] = round(segment_bound(hm, z["truth"][t]), 4)
+            best, kind = segment_bound(hm, z["truth"][t])
+            steps[-1] |= {"segment_iou": round(best, 4), "segment": kind}
         if t < len(z["actions"]):
             a = z["actions"][t]
             target.acted(_Decision("push" if a[0] > 0.5 else "grasp", a[1], a[2], a[3]), _Result(a[4] < 0.5))
@@ -217,6 +228,8 @@ def summary(trials: list[dict[str, Any]]) -> dict[str, int]:
                     f"{prefix}found_segment": sum(s["iou"] >= FOUND_IOU for s in whole),
                     f"{prefix}found_no_segment": sum(s["iou"] >= FOUND_IOU for s in part)}
         out["first_steps"] = len(firsts)
+        for kind in ("merged", "split", "mixed", "none"):
+            out[f"no_segment_{kind}"] = sum(s["segment"] == kind for s in counted)
     return out
 
 
@@ -269,6 +282,9 @@ def main(argv: list[str] | None = None) -> int:
                   f"({100 * s[f'{prefix}segment'] / n:.1f} %), the tracker on {s[f'{prefix}found_segment']} of "
                   f"those; on {s[f'{prefix}no_segment']} none does, the tracker on "
                   f"{s[f'{prefix}found_no_segment']} of those")
+        print(f"  where none does, the best segment holds the target with others (merged) on {s['no_segment_merged']}"
+              f", a piece of it (split) on {s['no_segment_split']}, neither on {s['no_segment_mixed']}, nothing on "
+              f"{s['no_segment_none']}")
     if args.save:
         args.save.write_text(json.dumps(trials))
     if args.against:
