@@ -259,7 +259,8 @@ class TargetTracker:
         if where:
             return Track(mask, float(best), True, f"{where}match {best:.2f} ({detail})")
         if best - runner < MARGIN:
-            return Track(mask, float(best), True, f"ambiguous: runner-up scores {runner:.2f} against {best:.2f}")
+            return Track(mask, float(best), True,
+                         f"ambiguous: runner-up scores {runner:.2f} against {best:.2f}{seam}")
         return Track(mask, float(best), False, f"match {best:.2f} ({detail})")
 
     def _scorer(self) -> SegmentScorer:
