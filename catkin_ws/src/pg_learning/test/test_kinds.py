@@ -90,6 +90,7 @@ def test_rows_per_arrangement_of_the_hard_household_family():
     assert arrangement_of_trial("random-10", 1_000_000) is None
     seeds = range(1_000_000, 1_000_012)
     assert sorted({arrangement_of_trial("household-hard-8", s) for s in seeds}) == sorted(ARRANGEMENT_NAMES)
+    assert {arrangement_of_trial("train-household-hard-inside-8", s) for s in seeds} == {"inside"}  # one for all
     trials = [TrialRecord(scene="household-hard-8", seed=s, completed=s % 2 == 0, grasps=1,
                           target_grasps=int(s % 2 == 0)) for s in seeds]
     trials.append(TrialRecord(scene="household-10", seed=1_000_000, completed=True, grasps=1, target_grasps=1))

@@ -1,4 +1,5 @@
-"""Household families (household-N, household-hard-N, train-...) and the arrangements of the hard ones."""
+"""Household families (household-N, household-hard-N, household-hard-A-N, train-...) and the arrangements of the hard
+ones."""
 
 from __future__ import annotations
 
@@ -54,6 +55,23 @@ def test_same_seed_same_scene_and_the_pools_are_disjoint():
     train, held = household_pool("train"), household_pool("heldout")
     assert set(train) == set(held)
     assert all(not set(train[c]) & set(held[c]) for c in train)
+
+
+@pytest.mark.parametrize("name", ARRANGEMENT_NAMES)
+def test_a_family_of_one_arrangement_arranges_every_scene_so(name):
+    family = f"train-household-hard-{name}"
+    assert check_generated(f"{family}-8") == (family, 8)
+    rng_name = f"{family}-8".encode()
+    for seed in range(5000, 5006):  # seeds of every arrangement in the mixed family: this one every time
+        scene = sample_family(f"{family}-8", seed)
+        assert all(split_of(_object_id(o.name)) == "train" for o in scene.objects)
+        rng = np.random.default_rng([seed, zlib.crc32(rng_name)])
+        pool = household_pool("train")
+        placed = ARRANGEMENTS[name](rng, {c: pool[c] for c in HOUSEHOLD_KINDS}).placed
+        assert {_object_id(o.name) for o in scene.objects} >= {p.object_id for p in placed}
+    assert check_generated(f"household-hard-{name}-8") == (f"household-hard-{name}", 8)
+    with pytest.raises(ValueError, match="unknown arrangement"):
+        arrangements.arranged_objects(np.random.default_rng(0), {}, 8, 0, [], (0, 255, 0), lambda r: "", "floating")
 
 
 def test_every_arrangement_in_six_consecutive_seeds():

@@ -42,7 +42,9 @@ def by_kind(trials: Sequence[TrialRecord]) -> dict[tuple[str, str], dict[str, St
 def arrangement_of_trial(scene: str, seed: int) -> str | None:
     """The arrangement of the target (pg_sim.world.arrangements) of a trial of a hard household family, else None."""
     parsed = parse_generated(scene)
-    return arrangement_of(seed) if parsed is not None and FAMILIES[parsed[0]].arranged else None
+    if parsed is None or not FAMILIES[parsed[0]].arranged:
+        return None
+    return FAMILIES[parsed[0]].arrangement or arrangement_of(seed)
 
 
 # grouping name -> (scene, seed) -> group of the trial (None: the trial is in no group)

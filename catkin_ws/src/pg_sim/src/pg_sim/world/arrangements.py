@@ -15,6 +15,8 @@ earlier one). Poses are in `world` (m, rad; ROS fixed-axis rpy about the boundin
 
 The arrangement of a scene is ``ARRANGEMENT_NAMES[seed % 6]`` (``arrangement_of``): any six consecutive seeds
 cover each once, so per-arrangement rows of a 100-trial run hold 16-17 trials each.
+The families of one arrangement (pg_sim.world.scene_families: ``household-hard-A-N``, ``train-household-hard-A-N``)
+pass it to every scene instead.
 Sampling needs no simulator: only the catalogue's metadata (pg_sim.objects.catalog.household_info).
 """
 
@@ -219,16 +221,18 @@ def arrangement_of(seed: int) -> str:
 
 
 def arranged_objects(rng: np.random.Generator, pool: Pool, n: int, seed: int, colors: Sequence[tuple[int, int, int]],
-                     target_color: tuple[int, int, int], draw_clutter: Callable[[np.random.Generator], str]
-                     ) -> list[ObjectSpec]:
-    """The n objects of a hard-family scene in spawn order: the arrangement of ``seed`` (target green), then
-    clutter ids from ``draw_clutter`` dropped at least KEEP_CLEAR_M plus half their length (at most
-    CLUTTER_REACH_CAP_M) from its anchor, from just above their half length. ``colors`` are the non-target colours
-    to draw from. Objects are named ``obj<i>-<category>-<index>`` with obj0 the target. Raises ValueError for
-    n < MIN_OBJECTS."""
+                     target_color: tuple[int, int, int], draw_clutter: Callable[[np.random.Generator], str],
+                     arrangement: str | None = None) -> list[ObjectSpec]:
+    """The n objects of a hard-family scene in spawn order: `arrangement` (one of ARRANGEMENT_NAMES; None: the
+    arrangement of ``seed``) with the target green, then clutter ids from ``draw_clutter`` dropped at least
+    KEEP_CLEAR_M plus half their length (at most CLUTTER_REACH_CAP_M) from its anchor, from just above their half
+    length. ``colors`` are the non-target colours to draw from. Objects are named ``obj<i>-<category>-<index>`` with
+    obj0 the target. Raises ValueError for n < MIN_OBJECTS or an unknown arrangement."""
     if n < MIN_OBJECTS:
         raise ValueError(f"an arranged scene needs at least {MIN_OBJECTS} objects, got {n}")
-    arranged = ARRANGEMENTS[arrangement_of(seed)](rng, pool)
+    if arrangement is not None and arrangement not in ARRANGEMENTS:
+        raise ValueError(f"unknown arrangement {arrangement!r} (known: {', '.join(ARRANGEMENT_NAMES)})")
+    arranged = ARRANGEMENTS[arrangement or arrangement_of(seed)](rng, pool)
     placed = list(arranged.placed)
     order = [arranged.target_at] + [i for i in range(len(placed)) if i != arranged.target_at]
     objects: list[ObjectSpec | None] = [None] * len(placed)

@@ -14,13 +14,16 @@
 | household-hard-N    | held-out household objects, target arranged    | see below    |
 | train-household-N   | training household objects                     | +-0.11 m     |
 | train-household-hard-N | training household objects, target arranged | see below    |
+| household-hard-A-N, train-household-hard-A-N | the same, every scene arrangement A | see below |
 
 Catalogue objects (pg_sim.objects.catalog) are drawn kind first (uniform over the kinds), then an id of that kind in
 the family's split, so every kind is equally likely whatever its number of ids. Household families draw from the
 household categories (pg_sim.objects.household) and pybullet_data's named meshes the same way, category first.
 Hard families (N >= 6) place the target in one of the arrangements of pg_sim.world.arrangements (under a
 neighbour, inside or holding a container, leaning, among thin objects, at the workspace edge; ``arrangement_of(seed)``)
-and drop the other objects around it. Object 0 is the target (green); the
+and drop the other objects around it. ``household-hard-A-N`` and ``train-household-hard-A-N``, A one of the
+arrangement names (e.g. ``train-household-hard-under-8``), arrange every scene as A: sets of one failure mode, as
+many trials as wanted. Object 0 is the target (green); the
 others take the other palette colours. Objects are named ``obj<i>-<kind>-<index>`` (``obj<i>-<shape>`` for blocks),
 so records name the target's kind. The same name and seed give the same scene; another name (family or N) with
 the same seed draws other objects.
@@ -38,8 +41,8 @@ import numpy as np
 from pg_sim.objects.catalog import HOUSEHOLD_KINDS, KINDS, household_ids, object_ids, object_spec
 from pg_sim.scenes.colors import COLORS, resolve_color
 from pg_sim.scenes.scene import ObjectSpec, SceneSpec
+from pg_sim.world.arrangements import ARRANGEMENT_NAMES, arranged_objects
 from pg_sim.world.arrangements import MIN_OBJECTS as MIN_ARRANGED
-from pg_sim.world.arrangements import arranged_objects
 from pg_sim.world.random_scene import BLOCKS, drop_scene, sample_drops
 
 if TYPE_CHECKING:  # a type only: scene sampling needs no simulator
@@ -51,14 +54,16 @@ MAX_OBJECTS = 40  # largest generated scene
 @dataclass(frozen=True)
 class Family:
     """A generated family: catalogue split (None = blocks only), share of blocks, drop half-extent (m), which
-    objects (``catalogue``: the novel kinds; ``household``: household categories and named meshes) and whether the
-    target is arranged (pg_sim.world.arrangements) instead of dropped."""
+    objects (``catalogue``: the novel kinds; ``household``: household categories and named meshes), whether the
+    target is arranged (pg_sim.world.arrangements) instead of dropped, and the one arrangement of every scene (None:
+    the seed's, ``arrangement_of``)."""
 
     split: str | None
     block_share: float
     half_extent: float
     objects: str = "catalogue"
     arranged: bool = False
+    arrangement: str | None = None
 
 
 FAMILIES: dict[str, Family] = {
@@ -75,6 +80,9 @@ FAMILIES: dict[str, Family] = {
     "train-household": Family("train", 0.0, 0.11, "household"),
     "train-household-hard": Family("train", 0.0, 0.11, "household", arranged=True),
 }
+for _name in ARRANGEMENT_NAMES:  # one arrangement for every scene of the family
+    FAMILIES[f"household-hard-{_name}"] = Family("heldout", 0.0, 0.11, "household", True, _name)
+    FAMILIES[f"train-household-hard-{_name}"] = Family("train", 0.0, 0.11, "household", True, _name)
 GENERATED = re.compile(r"^(" + "|".join(sorted(map(re.escape, FAMILIES), key=len, reverse=True)) + r")-(\d+)$")
 
 
@@ -145,7 +153,7 @@ def _household(name: str, family_name: str, fam: Family, n: int, seed: int, rng:
     colors = [resolve_color(c) for c in others]
     if fam.arranged:
         objects = arranged_objects(rng, {c: pool[c] for c in HOUSEHOLD_KINDS if c in pool}, n, seed, colors,
-                                   resolve_color(target), draw)
+                                   resolve_color(target), draw, fam.arrangement)
         return SceneSpec(name=f"{name}-seed{seed}", target=target, objects=tuple(objects), family=family_name)
     objects = []
     for i in range(n):
