@@ -259,8 +259,7 @@ class TargetTracker:
         if where:
             return Track(mask, float(best), True, f"{where}match {best:.2f} ({detail})")
         if best - runner < MARGIN:
-            return Track(mask, float(best), True,
-                         f"ambiguous: runner-up scores {runner:.2f} against {best:.2f}{seam}")
+            return Track(mask, float(best), True, f"ambiguous: runner-up scores {runner:.2f} against {best:.2f}{seam}")
         return Track(mask, float(best), False, f"match {best:.2f} ({detail})")
 
     def _scorer(self) -> SegmentScorer:
@@ -360,9 +359,8 @@ class TargetTracker:
 
     def _trim(self, hm: Heightmap, mask: np.ndarray, lab: np.ndarray,
               expected: tuple[float, float]) -> tuple[np.ndarray, str]:
-        """`mask` (a segment found whole) and "", or, when it holds more than SHAPE_RATIO times the reference's area,
-        its template_cut.seam_cut nearest `expected` (row, col) where that stands as high as the reference, and
-        "; a look-alike cut off along a seam" for the track's note."""
+        """(template_cut.seam_cut of `mask` nearest `expected` (row, col), a note) where `mask`, a segment found whole,
+        holds over SHAPE_RATIO times the reference's area and the cut stands as high as it; else (`mask`, "")."""
         assert self.reference is not None
         if self.template is None or self.reference.partial or mask.sum() <= SHAPE_RATIO * self.reference.area:
             return mask, ""
@@ -390,14 +388,13 @@ class TargetTracker:
         """The target looked for anywhere by appearance (module docstring; pg_policy.perception.refind), `others`
         the (H, W) bool cells of other objects unchanged since it was last found; or an empty track saying `why`
         not."""
-        assert self.reference is not None and self.last_mask is not None
+        assert self.reference is not None and self.last_mask is not None and self.sure_mask is not None
         found = refind(self.reference, hm, labels, lab, others, self.resolution, self.sure_mask, self._bare(hm),
                        UNMOVED_FRACTION)
         if found is None:
             return Track(np.zeros_like(self.last_mask), 0.0, True, f"not found: {why}")
         mask, score, how = found
-        sure = self.sure_mask if self.sure_mask is not None else self.last_mask
-        mask, seam = self._trim(hm, mask, lab, describe(hm, sure, lab).centroid)
+        mask, seam = self._trim(hm, mask, lab, describe(hm, self.sure_mask, lab).centroid)
         self._found(hm, mask, lab)
         self.anchor = None
         return Track(mask, score, True, f"re-found {how}{seam}; not found near its place: {why})")
